@@ -1,0 +1,282 @@
+//! Cameras: 3D world points → 2D pixel coordinates, and the Jacobian of that map.
+//!
+//! Pixel coordinates are continuous: pixel (row i, column j) covers `[j, j+1] × [i, i+1]`, x to the
+//! right, y **down**, so the image spans `[0, width] × [0, height]`. Pixels are square: a
+//! perspective camera's horizontal field of view follows from the vertical one and `width/height`.
+
+use glam::{Mat3, Vec2, Vec3};
+
+use crate::{Error, Result};
+
+/// Largest supported image side, in pixels.
+pub const MAX_RESOLUTION: u32 = 16384;
+
+/// How camera-space points map to the image plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Pinhole perspective with a vertical field of view in radians.
+    Perspective {
+        /// Vertical field of view, radians, in (0, π).
+        fov_y: f32,
+    },
+    /// Parallel projection; `height` world units span the image height.
+    Orthographic {
+        /// World units spanned by the image height.
+        height: f32,
+    },
+}
+
+/// A camera looking from `eye` at `target`, rendering a `width × height` image.
+///
+/// Points whose depth along the viewing direction is not strictly between `near` and `far` are
+/// *clipped*: a triangle with such a vertex is dropped from the silhouette (counted in
+/// [`RenderStats::culled_triangles`](crate::RenderStats)) and gets no gradient. Nothing there
+/// produces NaN.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Position of the eye, world space.
+    pub eye: Vec3,
+    /// Point the camera looks at.
+    pub target: Vec3,
+    /// Approximate up direction (must not be parallel to `target - eye`).
+    pub up: Vec3,
+    /// Perspective or orthographic.
+    pub projection: Projection,
+    /// Near clipping depth (> 0 for perspective).
+    pub near: f32,
+    /// Far clipping depth (> near).
+    pub far: f32,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A perspective camera with up = +y, near = 0.01, far = 1000.
+    pub fn perspective(eye: Vec3, target: Vec3, fov_y: f32, width: u32, height: u32) -> Camera {
+        Camera {
+            eye,
+            target,
+            up: Vec3::Y,
+            projection: Projection::Perspective { fov_y },
+            near: 0.01,
+            far: 1000.0,
+            width,
+            height,
+        }
+    }
+
+    /// An orthographic camera with up = +y whose image height spans `view_height` world units;
+    /// near = 0 (points behind the eye are clipped), far = 1000.
+    pub fn orthographic(eye: Vec3, target: Vec3, view_height: f32, width: u32, height: u32) -> Camera {
+        Camera {
+            eye,
+            target,
+            up: Vec3::Y,
+            projection: Projection::Orthographic { height: view_height },
+            near: 0.0,
+            far: 1000.0,
+            width,
+            height,
+        }
+    }
+
+    /// A perspective camera on a sphere around `target`: `azimuth` (radians, about +y, 0 looks
+    /// along −z from +z), `elevation` (radians, positive looks down from above), at `distance`.
+    pub fn orbit(
+        target: Vec3,
+        azimuth: f32,
+        elevation: f32,
+        distance: f32,
+        fov_y: f32,
+        width: u32,
+        height: u32,
+    ) -> Camera {
+        let dir = Vec3::new(elevation.cos() * azimuth.sin(), elevation.sin(), elevation.cos() * azimuth.cos());
+        Camera::perspective(target + dir * distance, target, fov_y, width, height)
+    }
+
+    /// Checks that the camera can form an image; every render calls this.
+    pub fn validate(&self) -> Result<()> {
+        if self.width == 0 || self.height == 0 || self.width > MAX_RESOLUTION || self.height > MAX_RESOLUTION {
+            return Err(Error::InvalidResolution { width: self.width, height: self.height, max: MAX_RESOLUTION });
+        }
+        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err(Error::InvalidCamera("eye, target and up must be finite".into()));
+        }
+        let forward = self.target - self.eye;
+        if forward.length_squared() < 1e-20 {
+            return Err(Error::InvalidCamera("eye and target coincide: the viewing direction is undefined".into()));
+        }
+        if forward.normalize().cross(self.up).length_squared() < 1e-12 {
+            return Err(Error::InvalidCamera(
+                "`up` is parallel to the viewing direction: choose another up vector".into(),
+            ));
+        }
+        if !(self.near.is_finite() && self.far.is_finite() && self.far > self.near) {
+            return Err(Error::InvalidCamera(format!(
+                "need finite near < far, got near {} far {}",
+                self.near, self.far
+            )));
+        }
+        match self.projection {
+            Projection::Perspective { fov_y } => {
+                if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) {
+                    return Err(Error::InvalidCamera(format!(
+                        "perspective fov_y must be in (0, π) radians, got {fov_y}"
+                    )));
+                }
+                if self.near <= 0.0 {
+                    return Err(Error::InvalidCamera(format!(
+                        "a perspective camera needs near > 0, got {}",
+                        self.near
+                    )));
+                }
+            }
+            Projection::Orthographic { height } => {
+                if !(height > 0.0 && height.is_finite()) {
+                    return Err(Error::InvalidCamera(format!("orthographic view height must be > 0, got {height}")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// World → camera rotation; rows are the camera's right, up and backward axes.
+    pub fn rotation(&self) -> Mat3 {
+        let back = (self.eye - self.target).normalize();
+        let right = self.up.cross(back).normalize();
+        let up = back.cross(right);
+        Mat3::from_cols(right, up, back).transpose()
+    }
+
+    /// The per-view constants the `project` stage uses (CPU and WGSL alike).
+    pub fn params(&self) -> ViewParams {
+        let r = self.rotation();
+        let t = -(r * self.eye);
+        let (scale, perspective) = match self.projection {
+            Projection::Perspective { fov_y } => (0.5 * self.height as f32 / (0.5 * fov_y).tan(), 1),
+            Projection::Orthographic { height } => (self.height as f32 / height, 0),
+        };
+        ViewParams {
+            row0: r.row(0).extend(t.x).to_array(),
+            row1: r.row(1).extend(t.y).to_array(),
+            row2: r.row(2).extend(t.z).to_array(),
+            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+            scale,
+            perspective,
+            near: self.near,
+            far: self.far,
+            width: self.width,
+            height: self.height,
+        }
+    }
+}
+
+/// Per-view projection constants, laid out for WGSL (keep in sync with `shaders/shared/view.wgsl`).
+///
+/// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]`; depth `d = −c.z`. Perspective:
+/// `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic: `x = cx + s·c.x`, `y = cy − s·c.y`.
+/// A point is valid when `near < d < far` and its pixel coordinates are within
+/// ±[`COORD_LIMIT`](crate::COORD_LIMIT).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ViewParams {
+    /// First row of `[R | t]`.
+    pub row0: [f32; 4],
+    /// Second row of `[R | t]`.
+    pub row1: [f32; 4],
+    /// Third row of `[R | t]`.
+    pub row2: [f32; 4],
+    /// Image centre in pixels.
+    pub centre: [f32; 2],
+    /// Pixels per unit of `c.x/d` (perspective) or of `c.x` (orthographic).
+    pub scale: f32,
+    /// 1 for perspective, 0 for orthographic.
+    pub perspective: u32,
+    /// Near clipping depth.
+    pub near: f32,
+    /// Far clipping depth.
+    pub far: f32,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+}
+
+impl ViewParams {
+    fn camera_space(&self, p: Vec3) -> Vec3 {
+        let h = p.extend(1.0);
+        Vec3::new(
+            glam::Vec4::from(self.row0).dot(h),
+            glam::Vec4::from(self.row1).dot(h),
+            glam::Vec4::from(self.row2).dot(h),
+        )
+    }
+
+    /// Projects `p`: pixel coordinates, and whether the point is inside the near/far range and the
+    /// coordinate limit.
+    pub fn project(&self, p: Vec3) -> (Vec2, bool) {
+        let c = self.camera_space(p);
+        let depth = -c.z;
+        let in_range = depth > self.near && depth < self.far;
+        let (x, y) = if self.perspective == 1 {
+            if !in_range {
+                return (Vec2::ZERO, false);
+            }
+            (c.x / depth, c.y / depth)
+        } else {
+            (c.x, c.y)
+        };
+        let screen = Vec2::new(self.centre[0] + self.scale * x, self.centre[1] - self.scale * y);
+        let valid = in_range && screen.x.abs() < crate::COORD_LIMIT && screen.y.abs() < crate::COORD_LIMIT;
+        (if valid { screen } else { Vec2::ZERO }, valid)
+    }
+
+    /// Jacobian of [`ViewParams::project`] at `p`: rows `∂x/∂p` and `∂y/∂p`. Zero for clipped points.
+    pub fn jacobian(&self, p: Vec3) -> [Vec3; 2] {
+        let c = self.camera_space(p);
+        let r0 = Vec3::from_slice(&self.row0[..3]);
+        let r1 = Vec3::from_slice(&self.row1[..3]);
+        let r2 = Vec3::from_slice(&self.row2[..3]);
+        if self.perspective == 1 {
+            let depth = -c.z;
+            if !(depth > self.near && depth < self.far) {
+                return [Vec3::ZERO; 2];
+            }
+            let k = self.scale / depth;
+            // d = −r2·p − t.z, so ∂(c.x/d)/∂p = r0/d + c.x·r2/d².
+            [k * (r0 + (c.x / depth) * r2), -k * (r1 + (c.y / depth) * r2)]
+        } else {
+            [self.scale * r0, -self.scale * r1]
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_of_view_projects_to_image_centre() {
+        let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 64, 32);
+        let (p, valid) = cam.params().project(Vec3::ZERO);
+        assert!(valid);
+        assert!((p - Vec2::new(32.0, 16.0)).length() < 1e-5);
+        // +y world is up on screen, i.e. smaller pixel y.
+        let (q, _) = cam.params().project(Vec3::new(0.0, 0.1, 0.0));
+        assert!(q.y < p.y);
+        let (r, _) = cam.params().project(Vec3::new(0.1, 0.0, 0.0));
+        assert!(r.x > p.x);
+    }
+
+    #[test]
+    fn behind_camera_is_invalid_and_zero() {
+        let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 64, 64);
+        let (p, valid) = cam.params().project(Vec3::new(0.0, 0.0, 4.0));
+        assert!(!valid);
+        assert_eq!(p, Vec2::ZERO);
+        assert_eq!(cam.params().jacobian(Vec3::new(0.0, 0.0, 4.0)), [Vec3::ZERO; 2]);
+    }
+}

@@ -1,0 +1,251 @@
+//! Triangle meshes and the per-topology data the renderer reuses across frames.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use crate::{Error, Result};
+
+/// A triangle mesh: vertex positions and triangles indexing them.
+///
+/// Validated on construction (indices in range, coordinates finite). The [`Topology`] is built once
+/// and shared (cheaply cloned) when positions change with [`Mesh::set_positions`], so an optimisation
+/// loop pays for it once. Winding does not matter: silhouettes ignore facing.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    positions: Vec<Vec3>,
+    topology: Arc<Topology>,
+}
+
+impl Mesh {
+    /// Builds a mesh, checking that every index is in range and every coordinate is finite.
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh> {
+        check_finite(&positions)?;
+        let topology = Topology::new(positions.len(), triangles)?;
+        Ok(Mesh { positions, topology: Arc::new(topology) })
+    }
+
+    /// A mesh with new positions on an existing topology (no rebuild of the edge tables).
+    pub fn with_topology(positions: Vec<Vec3>, topology: Arc<Topology>) -> Result<Mesh> {
+        if positions.len() != topology.vertex_count() {
+            return Err(Error::LengthMismatch {
+                what: "vertex positions",
+                expected: topology.vertex_count(),
+                got: positions.len(),
+            });
+        }
+        check_finite(&positions)?;
+        Ok(Mesh { positions, topology })
+    }
+
+    /// Replaces the vertex positions, keeping the topology. The count must not change.
+    pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<()> {
+        if positions.len() != self.positions.len() {
+            return Err(Error::LengthMismatch {
+                what: "vertex positions",
+                expected: self.positions.len(),
+                got: positions.len(),
+            });
+        }
+        check_finite(positions)?;
+        self.positions.copy_from_slice(positions);
+        Ok(())
+    }
+
+    /// Vertex positions.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Triangles as vertex index triples.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.topology.triangles
+    }
+
+    /// The shared per-topology tables.
+    pub fn topology(&self) -> &Arc<Topology> {
+        &self.topology
+    }
+
+    /// The mesh scaled and translated so that its bounding-box centre is at the origin and its
+    /// farthest vertex at distance `radius` (the benchmarks' normalisation). An empty or single-point
+    /// mesh is returned centred but unscaled.
+    pub fn normalized(&self, radius: f32) -> Mesh {
+        let Some(first) = self.positions.first() else { return self.clone() };
+        let (lo, hi) = self.positions.iter().fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let centre = (lo + hi) * 0.5;
+        let far = self.positions.iter().map(|p| (*p - centre).length()).fold(0.0f32, f32::max);
+        let scale = if far > 0.0 { radius / far } else { 1.0 };
+        let positions = self.positions.iter().map(|p| (*p - centre) * scale).collect();
+        Mesh { positions, topology: self.topology.clone() }
+    }
+}
+
+fn check_finite(positions: &[Vec3]) -> Result<()> {
+    match positions.iter().position(|p| !p.is_finite()) {
+        Some(vertex) => Err(Error::NonFiniteVertex { vertex, value: positions[vertex].to_array() }),
+        None => Ok(()),
+    }
+}
+
+/// Per-topology tables, built once and reused for every frame and view.
+///
+/// - the triangles;
+/// - the undirected edges `[a, b]` (`a < b`), each with its adjacent faces (CSR `edge_faces`);
+/// - a static vertex → incident edges CSR (`vertex_edges`), which the `gather` stage walks to sum
+///   per-edge gradient slots into per-vertex gradients in a fixed order (deterministic, atomic-free).
+///
+/// Triangles that repeat an index (zero-length edges) are kept for coverage, which is zero for them,
+/// but contribute no edges.
+#[derive(Clone, Debug)]
+pub struct Topology {
+    vertex_count: usize,
+    triangles: Vec<[u32; 3]>,
+    edges: Vec<[u32; 2]>,
+    edge_face_offsets: Vec<u32>,
+    edge_faces: Vec<u32>,
+    vertex_edge_offsets: Vec<u32>,
+    vertex_edges: Vec<u32>,
+}
+
+impl Topology {
+    /// Builds the tables for `vertex_count` vertices and these triangles.
+    pub fn new(vertex_count: usize, triangles: Vec<[u32; 3]>) -> Result<Topology> {
+        if vertex_count > u32::MAX as usize / 2 || triangles.len() > u32::MAX as usize / 4 {
+            return Err(Error::LengthMismatch {
+                what: "mesh size (vertices, triangles) must fit 32-bit indices",
+                expected: u32::MAX as usize / 4,
+                got: vertex_count.max(triangles.len()),
+            });
+        }
+        for (triangle, tri) in triangles.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
+                return Err(Error::IndexOutOfRange { triangle, index, vertex_count });
+            }
+        }
+        // Every (edge, face) incidence, sorted by edge: equal edges become runs.
+        let mut incidences: Vec<([u32; 2], u32)> = Vec::with_capacity(triangles.len() * 3);
+        for (face, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                if a != b {
+                    incidences.push(([a.min(b), a.max(b)], face as u32));
+                }
+            }
+        }
+        incidences.sort_unstable();
+        incidences.dedup(); // a face listing the same edge twice (a, b, a) counts once
+        let mut edges = Vec::new();
+        let mut edge_face_offsets = vec![0u32];
+        let mut edge_faces = Vec::with_capacity(incidences.len());
+        for (k, &(edge, face)) in incidences.iter().enumerate() {
+            if k == 0 || incidences[k - 1].0 != edge {
+                if k > 0 {
+                    edge_face_offsets.push(edge_faces.len() as u32);
+                }
+                edges.push(edge);
+            }
+            edge_faces.push(face);
+        }
+        if !edges.is_empty() {
+            edge_face_offsets.push(edge_faces.len() as u32);
+        }
+        let (vertex_edge_offsets, vertex_edges) = vertex_edge_csr(vertex_count, &edges);
+        Ok(Topology {
+            vertex_count,
+            triangles,
+            edges,
+            edge_face_offsets,
+            edge_faces,
+            vertex_edge_offsets,
+            vertex_edges,
+        })
+    }
+
+    /// Number of vertices the triangles index into.
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_count
+    }
+
+    /// The triangles.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Undirected edges `[a, b]` with `a < b`, sorted.
+    pub fn edges(&self) -> &[[u32; 2]] {
+        &self.edges
+    }
+
+    /// Faces adjacent to edge `e` (one for an open boundary, two for a manifold edge, more for a
+    /// non-manifold one).
+    pub fn edge_faces(&self, e: usize) -> &[u32] {
+        &self.edge_faces[self.edge_face_offsets[e] as usize..self.edge_face_offsets[e + 1] as usize]
+    }
+
+    /// CSR offsets of [`Topology::edge_face_list`] (length `edges + 1`).
+    pub fn edge_face_offsets(&self) -> &[u32] {
+        &self.edge_face_offsets
+    }
+
+    /// All edge → face lists, concatenated in edge order.
+    pub fn edge_face_list(&self) -> &[u32] {
+        &self.edge_faces
+    }
+
+    /// CSR offsets of [`Topology::vertex_edge_list`] (length `vertex_count + 1`).
+    pub fn vertex_edge_offsets(&self) -> &[u32] {
+        &self.vertex_edge_offsets
+    }
+
+    /// All vertex → incident edge lists, concatenated in vertex order, each list in edge order.
+    pub fn vertex_edge_list(&self) -> &[u32] {
+        &self.vertex_edges
+    }
+
+    /// Edges incident to vertex `v`.
+    pub fn vertex_edges(&self, v: usize) -> &[u32] {
+        &self.vertex_edges[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize]
+    }
+}
+
+fn vertex_edge_csr(vertex_count: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {
+    let mut offsets = vec![0u32; vertex_count + 1];
+    for e in edges {
+        offsets[e[0] as usize + 1] += 1;
+        offsets[e[1] as usize + 1] += 1;
+    }
+    for v in 0..vertex_count {
+        offsets[v + 1] += offsets[v];
+    }
+    let mut cursor = offsets.clone();
+    let mut list = vec![0u32; offsets[vertex_count] as usize];
+    for (k, e) in edges.iter().enumerate() {
+        for &v in e {
+            list[cursor[v as usize] as usize] = k as u32;
+            cursor[v as usize] += 1;
+        }
+    }
+    (offsets, list)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quad_has_five_edges_and_one_shared() {
+        let t = Topology::new(4, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        assert_eq!(t.edges().len(), 5);
+        let shared = t.edges().iter().position(|e| *e == [0, 2]).unwrap();
+        assert_eq!(t.edge_faces(shared), &[0, 1]);
+        assert_eq!(t.vertex_edges(0).len(), 3);
+        assert_eq!(t.vertex_edges(1).len(), 2);
+    }
+
+    #[test]
+    fn out_of_range_index_is_an_error() {
+        let err = Topology::new(3, vec![[0, 1, 3]]).unwrap_err();
+        assert!(matches!(err, Error::IndexOutOfRange { triangle: 0, index: 3, vertex_count: 3 }));
+    }
+}
