@@ -4,19 +4,23 @@
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod closed_form;
 pub mod cpu;
 mod error;
 pub mod gpu;
 mod image;
 pub mod io;
+pub mod layout;
 pub mod loss;
 pub mod mesh;
 pub mod oracle;
+mod render;
 
 pub use camera::{Camera, Projection, ViewParams};
 pub use error::{Error, Result};
 pub use image::Image;
 pub use mesh::{Mesh, Topology};
+pub use render::{BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView};
 
 /// Largest |pixel coordinate| a projected vertex may have; farther vertices are treated like
 /// vertices behind the camera (their triangles are culled). Keeps fixed-point coverage exact in

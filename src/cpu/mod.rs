@@ -1,1 +1,61 @@
-//! CPU backend (in progress)
+//! The CPU backend: one function per stage, each the twin of the WGSL shader of the same name
+//! (DESIGN.md §4), parallel with rayon where it pays.
+//!
+//! Forward: [`project`](project::project) → [`bin`](bin::bin) → [`coverage`](coverage::coverage)
+//! → [`resolve`](resolve::resolve) → [`edges`](edges::edges).
+//! Backward: [`edge_grad`](edge_grad::edge_grad) → [`gather`](gather::gather).
+
+pub mod bin;
+pub mod coverage;
+pub mod edge_grad;
+pub mod edges;
+pub mod gather;
+pub mod project;
+pub mod resolve;
+
+use glam::Vec2;
+
+use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
+use crate::mesh::Topology;
+use bin::Bins;
+use edge_grad::SegmentStats;
+
+/// What the forward of one view keeps for its backward.
+#[derive(Clone, Debug)]
+pub struct ViewState {
+    /// Raster constants (with the tile size the `bin` stage chose).
+    pub params: RasterParams,
+    /// Projected vertices.
+    pub screen: Vec<ScreenVertex>,
+    /// Tile → triangle lists.
+    pub bins: Bins,
+    /// Per-edge silhouette side from the `edges` stage.
+    pub sides: Vec<i32>,
+    /// Triangles culled because a vertex was clipped.
+    pub culled_triangles: u32,
+}
+
+/// Forward of one view from screen vertices: returns the state and the image.
+pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topology: &Topology) -> (ViewState, Vec<f32>) {
+    let triangles = topology.triangles();
+    params.set_tile_size(bin::choose_tile_size(&params, &screen, triangles));
+    let mut bins = Bins::default();
+    let culled_triangles = bin::bin(&params, &screen, triangles, &mut bins);
+    let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
+    coverage::coverage(&params, &screen, triangles, &bins, &mut masks);
+    let mut image = vec![0.0; params.pixel_count()];
+    resolve::resolve(&params, &masks, &mut image);
+    let mut sides = vec![0; topology.edges().len()];
+    edges::edges(&params, &screen, topology, &mut sides);
+    (ViewState { params, screen, bins, sides, culled_triangles }, image)
+}
+
+/// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.
+pub fn backward_view(state: &ViewState, topology: &Topology, d_image: &[f32]) -> (Vec<Vec2>, SegmentStats) {
+    let mut slots = vec![EdgeGrad::default(); topology.edges().len()];
+    let stats =
+        edge_grad::edge_grad(&state.params, &state.screen, topology, &state.sides, &state.bins, d_image, &mut slots);
+    let mut grads = vec![Vec2::ZERO; topology.vertex_count()];
+    gather::gather(topology, &slots, &mut grads);
+    (grads, stats)
+}

@@ -1,0 +1,16 @@
+//! `project` — CPU twin of `shaders/project.wgsl`: 3D vertices → screen vertices for one view.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::camera::ViewParams;
+use crate::layout::ScreenVertex;
+
+/// Projects every vertex with `view`; clipped vertices get `valid = 0` and position zero.
+/// Reads `positions`, writes `screen` (same length).
+pub fn project(view: &ViewParams, positions: &[Vec3], screen: &mut [ScreenVertex]) {
+    screen.par_iter_mut().with_min_len(4096).zip(positions.par_iter()).for_each(|(out, &p)| {
+        let (position, valid) = view.project(p);
+        *out = ScreenVertex { position: position.to_array(), valid: valid as u32, pad: 0 };
+    });
+}
