@@ -15,6 +15,7 @@ pub mod loss;
 pub mod mesh;
 pub mod oracle;
 mod render;
+pub mod shapes;
 
 pub use camera::{Camera, Projection, ViewParams};
 pub use error::{Error, Result};

@@ -1,1 +1,106 @@
-//! (in progress)
+//! The GPU backend: WGSL compute stages on any adapter wgpu supports.
+//!
+//! This module holds the plumbing the stages share:
+//! - [`GpuContext`]: adapter selection ([`GpuOptions`], [`AdapterChoice`], `DIFFSIL_ADAPTER`,
+//!   `WGPU_BACKEND`), the device, and helpers for pipelines, buffers, bind groups, submission
+//!   and 1D dispatches; [`Readback`] copies results back.
+//! - The shaders: every file under `shaders/` is validated by naga when the crate is built and
+//!   embedded in it ([`SHADERS`]); `//!include` directives are resolved by [`shader`], the same
+//!   code at build and run time. [`WORKGROUP_SIZES`] reflects each entry point's workgroup size.
+//!
+//! Every wgpu error becomes [`crate::Error::Gpu`]; a missing adapter is
+//! [`crate::Error::NoAdapter`]; a device limit that is too small is [`crate::Error::GpuLimit`].
+//!
+//! ## 1D dispatches beyond 65,535 workgroups
+//! A dimension of a dispatch holds at most `max_compute_workgroups_per_dimension` (65,535 by
+//! default) workgroups. [`GpuContext::dispatch_1d`] launches `n` workgroups as the grid
+//! [`workgroup_grid`] returns, and the shader recovers its linear index with
+//! `linear_invocation_index` from `shaders/shared/dispatch.wgsl` (row-major:
+//! `workgroup_id.x + workgroup_id.y * num_workgroups.x`), bounds-checking it against its
+//! element count because the grid may have a few workgroups too many.
+
+mod context;
+pub mod shader;
+
+pub use context::{
+    dispatch_1d_with_limit, hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions, Readback,
+};
+
+use crate::{Error, Result};
+
+mod embedded {
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+pub use embedded::{SHADERS, WORKGROUP_SIZES};
+
+/// The text of the embedded shader `name` (a path under `shaders/`, e.g. `"smoke.wgsl"`) with its
+/// `//!include` directives resolved: exactly what [`GpuContext::compute_pipeline`] compiles.
+pub fn shader_source(name: &str) -> Result<String> {
+    shader::resolve(SHADERS, name).map(|r| r.source).map_err(|e| Error::Gpu(e.to_string()))
+}
+
+/// The `@workgroup_size` of compute entry point `entry_point` in shader `shader`, as reflected at
+/// build time; `None` if there is no such entry point or its size is an override expression.
+pub fn workgroup_size(shader: &str, entry_point: &str) -> Option<[u32; 3]> {
+    WORKGROUP_SIZES.iter().find(|(s, e, _)| *s == shader && *e == entry_point).map(|(_, _, size)| *size)
+}
+
+/// The grid `[x, y, 1]` that launches at least `workgroups` workgroups with no dimension above
+/// `max_per_dimension`: `y = ceil(workgroups / max_per_dimension)`, `x = ceil(workgroups / y)`,
+/// so `x * y - workgroups < y` workgroups are surplus (the shader bounds-checks them away).
+/// `[0, 1, 1]` for no work. [`Error::GpuLimit`] when even `y` would exceed the limit.
+pub fn workgroup_grid(workgroups: u32, max_per_dimension: u32) -> Result<[u32; 3]> {
+    if workgroups == 0 {
+        return Ok([0, 1, 1]);
+    }
+    let limit_error = || Error::GpuLimit {
+        limit: "max_compute_workgroups_per_dimension",
+        needed: u64::from(workgroups),
+        max: u64::from(max_per_dimension) * u64::from(max_per_dimension),
+    };
+    if max_per_dimension == 0 {
+        return Err(limit_error());
+    }
+    let y = workgroups.div_ceil(max_per_dimension);
+    if y > max_per_dimension {
+        return Err(limit_error());
+    }
+    Ok([workgroups.div_ceil(y), y, 1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_covers_work_within_limits() {
+        assert_eq!(workgroup_grid(0, 65_535).unwrap(), [0, 1, 1]);
+        assert_eq!(workgroup_grid(1, 65_535).unwrap(), [1, 1, 1]);
+        assert_eq!(workgroup_grid(65_535, 65_535).unwrap(), [65_535, 1, 1]);
+        assert_eq!(workgroup_grid(65_536, 65_535).unwrap(), [32_768, 2, 1]);
+        assert_eq!(workgroup_grid(3_125, 1_000).unwrap(), [782, 4, 1]);
+        for (n, max) in [(1u32, 1u32), (7, 3), (90_000, 300), (89_999, 300), (65_535 * 65_535, 65_535)] {
+            let [x, y, z] = workgroup_grid(n, max).unwrap();
+            assert!(x <= max && y <= max && z == 1, "{n} {max}");
+            let total = u64::from(x) * u64::from(y);
+            assert!(total >= u64::from(n) && total - u64::from(n) < u64::from(y), "{n} {max}");
+        }
+        assert!(matches!(workgroup_grid(5, 2), Err(Error::GpuLimit { .. })));
+        assert!(matches!(workgroup_grid(1, 0), Err(Error::GpuLimit { .. })));
+    }
+
+    #[test]
+    fn embedded_shaders_resolve() {
+        assert!(SHADERS.iter().any(|(name, _)| *name == "smoke.wgsl"));
+        assert!(SHADERS.iter().any(|(name, _)| *name == "shared/dispatch.wgsl"));
+        for (name, _) in SHADERS {
+            let source = shader_source(name).unwrap();
+            assert!(!source.lines().any(|l| l.trim_start().starts_with("//!include ")), "{name}");
+        }
+        assert!(shader_source("smoke.wgsl").unwrap().contains("fn linear_invocation_index"));
+        assert_eq!(workgroup_size("smoke.wgsl", "main"), Some([64, 1, 1]));
+        assert_eq!(workgroup_size("smoke.wgsl", "nope"), None);
+        assert!(matches!(shader_source("nope.wgsl"), Err(Error::GpuLimit { .. }) | Err(Error::Gpu(_))));
+    }
+}
