@@ -85,6 +85,9 @@ impl SnappedTriangle {
 
 /// Writes every pixel's sample mask. Reads the screen vertices, triangles and tile bins of one
 /// view; writes `masks` (`pixel_count · words_per_pixel` words, zeroed here first).
+///
+/// Small triangles are tested sample by sample with incremental edge functions, large ones row by
+/// row with [`SnappedTriangle::row_span`]; both evaluate the same predicate exactly.
 pub fn coverage(
     params: &RasterParams,
     screen: &[ScreenVertex],
@@ -99,28 +102,259 @@ pub fn coverage(
     masks.par_chunks_mut(row_words * params.tile_size as usize).enumerate().for_each(|(ty, rows)| {
         rows.fill(0);
         let pixel_row0 = ty as i64 * tile;
-        let sample_rows = (pixel_row0 * f, (pixel_row0 + tile).min(params.height as i64) * f - 1);
+        let tile_rows = (pixel_row0 * f, (pixel_row0 + tile).min(params.height as i64) * f - 1);
+        let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
         for tx in 0..params.tiles_x as i64 {
-            let sample_cols = (tx * tile * f, ((tx + 1) * tile).min(params.width as i64) * f - 1);
+            let tile_cols = (tx * tile * f, ((tx + 1) * tile).min(params.width as i64) * f - 1);
             for &t in bins.tile((ty as i64 * params.tiles_x as i64 + tx) as usize) {
                 let Some(tri) = SnappedTriangle::new(params, screen, triangles[t as usize]) else { continue };
-                let h = params.half_step as i64;
-                let ymin = tri.v.iter().map(|v| v[1]).min().unwrap();
-                let ymax = tri.v.iter().map(|v| v[1]).max().unwrap();
-                // Sample rows whose y = (2·sy + 1)·h lies in [ymin, ymax].
-                let sy0 = sample_rows.0.max((ymin - h + 2 * h - 1).div_euclid(2 * h));
-                let sy1 = sample_rows.1.min((ymax - h).div_euclid(2 * h));
-                for sy in sy0..=sy1 {
-                    let Some((c0, c1)) = tri.row_span(params, sy, sample_cols.0, sample_cols.1) else { continue };
-                    let local_row = (sy / f - pixel_row0) as usize;
-                    let b = (sy % f) as u32;
-                    for sx in c0..=c1 {
-                        let bit = b * params.supersample + (sx % f) as u32;
-                        let word = local_row * row_words + (sx / f) as usize * wpp + (bit / 32) as usize;
-                        rows[word] |= 1 << (bit % 32);
-                    }
+                let (cols, rows) = tri.sample_box(params);
+                let cols = (cols.0.max(tile_cols.0), cols.1.min(tile_cols.1));
+                let rows = (rows.0.max(tile_rows.0), rows.1.min(tile_rows.1));
+                if cols.0 > cols.1 || rows.0 > rows.1 {
+                    continue;
+                }
+                if cols.1 - cols.0 < 8 {
+                    tri.raster_samples(params, cols, rows, &mut band);
+                } else {
+                    tri.raster_rows(params, cols, rows, &mut band);
                 }
             }
         }
     });
+}
+
+/// The mask rows of one tile row, written by one thread.
+struct Band<'a> {
+    params: &'a RasterParams,
+    rows: &'a mut [u32],
+    row_words: usize,
+    wpp: usize,
+    pixel_row0: i64,
+}
+
+impl Band<'_> {
+    /// Sets samples `span.0..=span.1` of sample row `sy`, a pixel's worth of bits at a time.
+    fn set_span(&mut self, sy: i64, span: (i64, i64)) {
+        let f = self.params.supersample;
+        let (sy, first, last) = (sy as u32, span.0 as u32, span.1 as u32);
+        let row = (sy / f - self.pixel_row0 as u32) as usize * self.row_words;
+        let bit_row = (sy % f) * f;
+        let mut pixel = first / f;
+        let mut a0 = first - pixel * f;
+        let last_pixel = last / f;
+        while pixel <= last_pixel {
+            let a1 = if pixel == last_pixel { last - pixel * f } else { f - 1 };
+            let (lo, hi) = (bit_row + a0, bit_row + a1);
+            let base = row + pixel as usize * self.wpp;
+            if hi / 32 == lo / 32 {
+                self.rows[base + (lo / 32) as usize] |= bit_range(lo % 32, hi % 32);
+            } else {
+                for bit in lo..=hi {
+                    self.rows[base + (bit / 32) as usize] |= 1 << (bit % 32);
+                }
+            }
+            pixel += 1;
+            a0 = 0;
+        }
+    }
+}
+
+/// `⌊n / m⌋ + offset` for `n` growing by `dn` per step, kept exact with a quotient and a
+/// remainder (`m > 0`). A *row test* (`m == 0`) instead tracks `n > 0` for an edge parallel to the
+/// sample rows.
+#[derive(Clone, Copy, Debug)]
+struct Stepper {
+    q: i64,
+    r: i64,
+    m: i64,
+    dq: i64,
+    dr: i64,
+    offset: i64,
+}
+
+impl Stepper {
+    fn new(n: i64, dn: i64, m: i64, offset: i64) -> Stepper {
+        Stepper { q: n.div_euclid(m), r: n.rem_euclid(m), m, dq: dn.div_euclid(m), dr: dn.rem_euclid(m), offset }
+    }
+
+    fn constant_rows(c0: i64, dc0: i64) -> Stepper {
+        Stepper { q: c0, r: 0, m: 0, dq: dc0, dr: 0, offset: 0 }
+    }
+
+    fn is_row_test(&self) -> bool {
+        self.m == 0
+    }
+
+    fn row_passes(&self) -> bool {
+        self.q > 0
+    }
+
+    fn value(&self) -> i64 {
+        self.q + self.offset
+    }
+
+    fn step(&mut self) {
+        self.q += self.dq;
+        if self.m != 0 {
+            self.r += self.dr;
+            if self.r >= self.m {
+                self.r -= self.m;
+                self.q += 1;
+            }
+        }
+    }
+}
+
+/// Bits `lo..=hi` of a word.
+fn bit_range(lo: u32, hi: u32) -> u32 {
+    (u32::MAX >> (31 - hi)) & (u32::MAX << lo)
+}
+
+impl SnappedTriangle {
+    /// Sample columns and rows whose sample positions lie in the triangle's bounding box.
+    pub fn sample_box(&self, params: &RasterParams) -> ((i64, i64), (i64, i64)) {
+        let h = params.half_step as i64;
+        // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.
+        let range = |lo: i64, hi: i64| ((lo + h - 1).div_euclid(2 * h), (hi - h).div_euclid(2 * h));
+        let xs = self.v.map(|v| v[0]);
+        let ys = self.v.map(|v| v[1]);
+        (
+            range(*xs.iter().min().unwrap(), *xs.iter().max().unwrap()),
+            range(*ys.iter().min().unwrap(), *ys.iter().max().unwrap()),
+        )
+    }
+
+    /// Covers rows `rows` (sample rows, within columns `cols`) by exact spans, each edge's bound
+    /// stepped from row to row with an incremental floor division (a few divisions per triangle,
+    /// none per row). Same samples as [`SnappedTriangle::row_span`] gives row by row.
+    fn raster_rows(&self, params: &RasterParams, cols: (i64, i64), rows: (i64, i64), band: &mut Band<'_>) {
+        let h = params.half_step as i64;
+        let py0 = (2 * rows.0 + 1) * h;
+        let mut lower: [Option<Stepper>; 3] = [None; 3];
+        let mut upper: [Option<Stepper>; 3] = [None; 3];
+        for k in 0..3 {
+            let (a, b) = (self.v[k], self.v[(k + 1) % 3]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let c1 = -dy * 2 * h;
+            let c0 = dx * (py0 - a[1]) - dy * (h - a[0]) + self.bias[k];
+            let dc0 = dx * 2 * h; // change of c0 per sample row
+            if c1 == 0 {
+                // dy = 0 ⇒ dx ≠ 0 and c0 changes monotonically; clamp the rows instead.
+                upper[k] = Some(Stepper::constant_rows(c0, dc0));
+            } else if c1 > 0 {
+                // sx ≥ ⌊−c0/c1⌋ + 1
+                lower[k] = Some(Stepper::new(-c0, -dc0, c1, 1));
+            } else {
+                // sx ≤ ⌊(c0 − 1)/(−c1)⌋
+                upper[k] = Some(Stepper::new(c0 - 1, dc0, -c1, 0));
+            }
+        }
+        for sy in rows.0..=rows.1 {
+            let (mut lo, mut hi) = cols;
+            let mut empty = false;
+            for k in 0..3 {
+                if let Some(s) = &lower[k] {
+                    lo = lo.max(s.value());
+                }
+                if let Some(s) = &upper[k] {
+                    if s.is_row_test() {
+                        empty |= !s.row_passes();
+                    } else {
+                        hi = hi.min(s.value());
+                    }
+                }
+            }
+            if !empty && lo <= hi {
+                band.set_span(sy, (lo, hi));
+            }
+            for s in lower.iter_mut().chain(upper.iter_mut()).flatten() {
+                s.step();
+            }
+        }
+    }
+
+    /// Tests every sample of the box with incremental edge functions.
+    fn raster_samples(&self, params: &RasterParams, cols: (i64, i64), rows: (i64, i64), band: &mut Band<'_>) {
+        let h = params.half_step as i64;
+        let f = params.supersample as i64;
+        let p0 = [(2 * cols.0 + 1) * h, (2 * rows.0 + 1) * h];
+        let mut row_e = [0, 1, 2].map(|k| self.edge_function(k, p0) + self.bias[k]);
+        let step_x = [0, 1, 2].map(|k| -(self.v[(k + 1) % 3][1] - self.v[k][1]) * 2 * h);
+        let step_y = [0, 1, 2].map(|k| (self.v[(k + 1) % 3][0] - self.v[k][0]) * 2 * h);
+        for sy in rows.0..=rows.1 {
+            let mut e = row_e;
+            let row = (sy / f - band.pixel_row0) as usize * band.row_words;
+            let bit_row = (sy % f) as u32 * f as u32;
+            // Walk pixel by pixel (no division per sample).
+            let (mut pixel, mut a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
+            for _ in cols.0..=cols.1 {
+                if e[0] > 0 && e[1] > 0 && e[2] > 0 {
+                    let bit = bit_row + a;
+                    band.rows[row + pixel * band.wpp + (bit / 32) as usize] |= 1 << (bit % 32);
+                }
+                for k in 0..3 {
+                    e[k] += step_x[k];
+                }
+                a += 1;
+                if a == f as u32 {
+                    a = 0;
+                    pixel += 1;
+                }
+            }
+            for k in 0..3 {
+                row_e[k] += step_y[k];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fast paths set exactly the samples the reference predicate `covers` accepts.
+    #[test]
+    fn fast_paths_match_the_per_sample_predicate() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rand = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        for f in [1, 3, 4, 6] {
+            let mut params = RasterParams::new(24, 20, f, 1.0, 0.0).unwrap();
+            params.set_tile_size(8);
+            for _ in 0..60 {
+                // Mix small and large triangles, some on exact sample/pixel positions.
+                let scale = if rand() < 0.5 { 4.0 } else { 40.0 };
+                let screen: Vec<ScreenVertex> = (0..3)
+                    .map(|_| {
+                        let mut p = [rand() * scale - 4.0 + rand() * 16.0, rand() * scale - 4.0 + rand() * 12.0];
+                        if rand() < 0.3 {
+                            p = p.map(|c| (c * 2.0).round() / 2.0);
+                        }
+                        ScreenVertex { position: p, valid: 1, pad: 0 }
+                    })
+                    .collect();
+                let tris = [[0u32, 1, 2]];
+                let mut bins = Bins::default();
+                super::super::bin::bin(&params, &screen, &tris, &mut bins);
+                let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
+                coverage(&params, &screen, &tris, &bins, &mut masks);
+                let tri = SnappedTriangle::new(&params, &screen, tris[0]);
+                let h = params.half_step as i64;
+                for sy in 0..(params.height * f) as i64 {
+                    for sx in 0..(params.width * f) as i64 {
+                        let expected = tri.is_some_and(|t| t.covers([(2 * sx + 1) * h, (2 * sy + 1) * h]));
+                        let pixel = (sy / f as i64) as usize * params.width as usize + (sx / f as i64) as usize;
+                        let bit = (sy % f as i64) as usize * f as usize + (sx % f as i64) as usize;
+                        let word = masks[pixel * params.words_per_pixel as usize + bit / 32];
+                        assert_eq!(word >> (bit % 32) & 1 == 1, expected, "F={f} sample ({sx},{sy}) {screen:?}");
+                    }
+                }
+            }
+        }
+    }
 }
