@@ -50,6 +50,10 @@ pub struct RasterParams {
     pub inv_samples: f32,
 }
 
+/// The snapped position of a clipped vertex (never a real position: snapped coordinates are
+/// within ±2^29).
+pub const INVALID_SNAPPED: [i32; 2] = [i32::MIN, i32::MIN];
+
 /// Largest supported supersampling factor.
 pub const MAX_SUPERSAMPLE: u32 = 16;
 
@@ -106,9 +110,21 @@ impl RasterParams {
         self.tiles_x as usize * self.tiles_y as usize
     }
 
-    /// Snaps a pixel coordinate to the fixed-point grid (the same arithmetic as WGSL's `snap`).
+    /// Snaps a pixel coordinate to the fixed-point grid: `floor(x·units + 0.5)` in f32, the same
+    /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`](crate::COORD_LIMIT)).
     pub fn snap(&self, x: f32) -> i32 {
-        (x * self.units as f32 + 0.5).floor() as i32
+        let y = x * self.units as f32 + 0.5;
+        let t = y as i32; // truncation toward zero, then down for negative non-integers
+        t - (y < t as f32) as i32
+    }
+
+    /// Snaps a screen vertex; clipped vertices become [`INVALID_SNAPPED`].
+    pub fn snap_vertex(&self, v: &ScreenVertex) -> [i32; 2] {
+        if v.valid == 0 {
+            INVALID_SNAPPED
+        } else {
+            [self.snap(v.position[0]), self.snap(v.position[1])]
+        }
     }
 }
 

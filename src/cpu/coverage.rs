@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 
 use super::bin::Bins;
-use crate::layout::{RasterParams, ScreenVertex};
+use crate::layout::{RasterParams, INVALID_SNAPPED};
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
 /// (positive area), with its top-left biases. `None` for culled or zero-area triangles.
@@ -22,13 +22,13 @@ pub struct SnappedTriangle {
 }
 
 impl SnappedTriangle {
-    /// Snaps triangle `tri`; `None` when a vertex is clipped or the snapped area is zero.
-    pub fn new(params: &RasterParams, screen: &[ScreenVertex], tri: [u32; 3]) -> Option<SnappedTriangle> {
-        let s = tri.map(|i| screen[i as usize]);
-        if s.iter().any(|s| s.valid == 0) {
+    /// The snapped triangle `tri`; `None` when a vertex is clipped or the snapped area is zero.
+    pub fn new(snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<SnappedTriangle> {
+        let s = tri.map(|i| snapped[i as usize]);
+        if s.contains(&INVALID_SNAPPED) {
             return None;
         }
-        let mut v = s.map(|s| [params.snap(s.position[0]) as i64, params.snap(s.position[1]) as i64]);
+        let mut v = s.map(|p| [p[0] as i64, p[1] as i64]);
         let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
         if area2 == 0 {
             return None;
@@ -83,18 +83,12 @@ impl SnappedTriangle {
     }
 }
 
-/// Writes every pixel's sample mask. Reads the screen vertices, triangles and tile bins of one
+/// Writes every pixel's sample mask. Reads the snapped vertices, triangles and tile bins of one
 /// view; writes `masks` (`pixel_count · words_per_pixel` words, zeroed here first).
 ///
 /// Small triangles are tested sample by sample with incremental edge functions, large ones row by
 /// row with [`SnappedTriangle::row_span`]; both evaluate the same predicate exactly.
-pub fn coverage(
-    params: &RasterParams,
-    screen: &[ScreenVertex],
-    triangles: &[[u32; 3]],
-    bins: &Bins,
-    masks: &mut [u32],
-) {
+pub fn coverage(params: &RasterParams, snapped: &[[i32; 2]], triangles: &[[u32; 3]], bins: &Bins, masks: &mut [u32]) {
     let f = params.supersample as i64;
     let wpp = params.words_per_pixel as usize;
     let row_words = params.width as usize * wpp;
@@ -106,8 +100,8 @@ pub fn coverage(
         let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
         for tx in 0..params.tiles_x as i64 {
             let tile_cols = (tx * tile * f, ((tx + 1) * tile).min(params.width as i64) * f - 1);
-            for &t in bins.tile((ty as i64 * params.tiles_x as i64 + tx) as usize) {
-                let Some(tri) = SnappedTriangle::new(params, screen, triangles[t as usize]) else { continue };
+            for &t in bins.tile_triangles((ty as i64 * params.tiles_x as i64 + tx) as usize) {
+                let Some(tri) = SnappedTriangle::new(snapped, triangles[t as usize]) else { continue };
                 let (cols, rows) = tri.sample_box(params);
                 let cols = (cols.0.max(tile_cols.0), cols.1.min(tile_cols.1));
                 let rows = (rows.0.max(tile_rows.0), rows.1.min(tile_rows.1));
@@ -138,11 +132,12 @@ impl Band<'_> {
     fn set_span(&mut self, sy: i64, span: (i64, i64)) {
         let f = self.params.supersample;
         let (sy, first, last) = (sy as u32, span.0 as u32, span.1 as u32);
-        let row = (sy / f - self.pixel_row0 as u32) as usize * self.row_words;
-        let bit_row = (sy % f) * f;
-        let mut pixel = first / f;
+        let (sy_pixel, first_pixel, last_pixel) =
+            if f == 4 { (sy >> 2, first >> 2, last >> 2) } else { (sy / f, first / f, last / f) };
+        let row = (sy_pixel - self.pixel_row0 as u32) as usize * self.row_words;
+        let bit_row = (sy - sy_pixel * f) * f;
+        let mut pixel = first_pixel;
         let mut a0 = first - pixel * f;
-        let last_pixel = last / f;
         while pixel <= last_pixel {
             let a1 = if pixel == last_pixel { last - pixel * f } else { f - 1 };
             let (lo, hi) = (bit_row + a0, bit_row + a1);
@@ -160,50 +155,28 @@ impl Band<'_> {
     }
 }
 
-/// `⌊n / m⌋ + offset` for `n` growing by `dn` per step, kept exact with a quotient and a
-/// remainder (`m > 0`). A *row test* (`m == 0`) instead tracks `n > 0` for an edge parallel to the
-/// sample rows.
-#[derive(Clone, Copy, Debug)]
-struct Stepper {
-    q: i64,
-    r: i64,
-    m: i64,
-    dq: i64,
-    dr: i64,
-    offset: i64,
+/// Which side of a row span an edge bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Bound {
+    Lower,
+    Upper,
+    RowTest,
 }
 
-impl Stepper {
-    fn new(n: i64, dn: i64, m: i64, offset: i64) -> Stepper {
-        Stepper { q: n.div_euclid(m), r: n.rem_euclid(m), m, dq: dn.div_euclid(m), dr: dn.rem_euclid(m), offset }
+/// `(⌊n / m⌋, n mod m)` for `m > 0`, exactly: an f64 estimate corrected with integer arithmetic
+/// (much cheaper than a 64-bit integer division).
+fn floor_div(n: i64, m: i64) -> (i64, i64) {
+    let mut q = (n as f64 / m as f64).floor() as i64;
+    let mut r = n - q * m;
+    while r < 0 {
+        q -= 1;
+        r += m;
     }
-
-    fn constant_rows(c0: i64, dc0: i64) -> Stepper {
-        Stepper { q: c0, r: 0, m: 0, dq: dc0, dr: 0, offset: 0 }
+    while r >= m {
+        q += 1;
+        r -= m;
     }
-
-    fn is_row_test(&self) -> bool {
-        self.m == 0
-    }
-
-    fn row_passes(&self) -> bool {
-        self.q > 0
-    }
-
-    fn value(&self) -> i64 {
-        self.q + self.offset
-    }
-
-    fn step(&mut self) {
-        self.q += self.dq;
-        if self.m != 0 {
-            self.r += self.dr;
-            if self.r >= self.m {
-                self.r -= self.m;
-                self.q += 1;
-            }
-        }
-    }
+    (q, r)
 }
 
 /// Bits `lo..=hi` of a word.
@@ -231,45 +204,51 @@ impl SnappedTriangle {
     fn raster_rows(&self, params: &RasterParams, cols: (i64, i64), rows: (i64, i64), band: &mut Band<'_>) {
         let h = params.half_step as i64;
         let py0 = (2 * rows.0 + 1) * h;
-        let mut lower: [Option<Stepper>; 3] = [None; 3];
-        let mut upper: [Option<Stepper>; 3] = [None; 3];
+        // Per edge: the bound is q (+1 for a lower bound), q/r an exact running floor division by m.
+        let (mut q, mut r, mut m, mut dq, mut dr) = ([0i64; 3], [0i64; 3], [0i64; 3], [0i64; 3], [0i64; 3]);
+        let mut kind = [Bound::Lower; 3];
         for k in 0..3 {
             let (a, b) = (self.v[k], self.v[(k + 1) % 3]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let c1 = -dy * 2 * h;
             let c0 = dx * (py0 - a[1]) - dy * (h - a[0]) + self.bias[k];
             let dc0 = dx * 2 * h; // change of c0 per sample row
-            if c1 == 0 {
-                // dy = 0 ⇒ dx ≠ 0 and c0 changes monotonically; clamp the rows instead.
-                upper[k] = Some(Stepper::constant_rows(c0, dc0));
+            let (n, dn) = if c1 == 0 {
+                kind[k] = Bound::RowTest; // parallel to the rows: the row passes while c0 > 0
+                q[k] = c0;
+                dq[k] = dc0;
+                continue;
             } else if c1 > 0 {
-                // sx ≥ ⌊−c0/c1⌋ + 1
-                lower[k] = Some(Stepper::new(-c0, -dc0, c1, 1));
+                kind[k] = Bound::Lower; // sx ≥ ⌊−c0/c1⌋ + 1
+                m[k] = c1;
+                (-c0, -dc0)
             } else {
-                // sx ≤ ⌊(c0 − 1)/(−c1)⌋
-                upper[k] = Some(Stepper::new(c0 - 1, dc0, -c1, 0));
-            }
+                kind[k] = Bound::Upper; // sx ≤ ⌊(c0 − 1)/(−c1)⌋
+                m[k] = -c1;
+                (c0 - 1, dc0)
+            };
+            (q[k], r[k]) = floor_div(n, m[k]);
+            (dq[k], dr[k]) = floor_div(dn, m[k]);
         }
         for sy in rows.0..=rows.1 {
-            let (mut lo, mut hi) = cols;
-            let mut empty = false;
+            let (mut lo, mut hi, mut pass) = (cols.0, cols.1, true);
             for k in 0..3 {
-                if let Some(s) = &lower[k] {
-                    lo = lo.max(s.value());
-                }
-                if let Some(s) = &upper[k] {
-                    if s.is_row_test() {
-                        empty |= !s.row_passes();
-                    } else {
-                        hi = hi.min(s.value());
-                    }
+                match kind[k] {
+                    Bound::Lower => lo = lo.max(q[k] + 1),
+                    Bound::Upper => hi = hi.min(q[k]),
+                    Bound::RowTest => pass &= q[k] > 0,
                 }
             }
-            if !empty && lo <= hi {
+            if pass && lo <= hi {
                 band.set_span(sy, (lo, hi));
             }
-            for s in lower.iter_mut().chain(upper.iter_mut()).flatten() {
-                s.step();
+            for k in 0..3 {
+                q[k] += dq[k];
+                r[k] += dr[k];
+                if m[k] != 0 && r[k] >= m[k] {
+                    r[k] -= m[k];
+                    q[k] += 1;
+                }
             }
         }
     }
@@ -315,6 +294,15 @@ mod tests {
 
     /// The fast paths set exactly the samples the reference predicate `covers` accepts.
     #[test]
+    fn floor_div_is_exact() {
+        for (n, m) in
+            [(7i64, 2i64), (-7, 2), (0, 5), (-1, 5), (1 << 61, 3), (-(1 << 61) + 7, 1 << 40), (123456789012345, 97)]
+        {
+            assert_eq!(floor_div(n, m), (n.div_euclid(m), n.rem_euclid(m)), "{n} / {m}");
+        }
+    }
+
+    #[test]
     fn fast_paths_match_the_per_sample_predicate() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         let mut rand = move || {
@@ -339,11 +327,12 @@ mod tests {
                     })
                     .collect();
                 let tris = [[0u32, 1, 2]];
+                let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
                 let mut bins = Bins::default();
-                super::super::bin::bin(&params, &screen, &tris, &mut bins);
+                super::super::bin::bin(&params, &screen, &snapped, &tris, &mut bins);
                 let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-                coverage(&params, &screen, &tris, &bins, &mut masks);
-                let tri = SnappedTriangle::new(&params, &screen, tris[0]);
+                coverage(&params, &snapped, &tris, &bins, &mut masks);
+                let tri = SnappedTriangle::new(&snapped, tris[0]);
                 let h = params.half_step as i64;
                 for sy in 0..(params.height * f) as i64 {
                     for sx in 0..(params.width * f) as i64 {

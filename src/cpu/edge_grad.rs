@@ -131,12 +131,12 @@ pub fn edge_gradient(
             let (bb_lo, bb_hi) = (va + c.0 * d, va + c.1 * d);
             let (bb_lo, bb_hi) = (bb_lo.min(bb_hi), bb_lo.max(bb_hi));
             scratch.clear();
-            for &t in bins.tile(tile as usize) {
-                let q = triangles[t as usize].map(|v| position(screen, v));
-                let (qlo, qhi) = (q[0].min(q[1]).min(q[2]), q[0].max(q[1]).max(q[2]));
-                if qlo.x > bb_hi.x || qlo.y > bb_hi.y || qhi.x < bb_lo.x || qhi.y < bb_lo.y {
+            for (t, b) in bins.tile(tile as usize) {
+                if b[0] as f64 > bb_hi.x || b[1] as f64 > bb_hi.y || (b[2] as f64) < bb_lo.x || (b[3] as f64) < bb_lo.y
+                {
                     continue;
                 }
+                let q = triangles[t as usize].map(|v| position(screen, v));
                 if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
                     scratch.push(iv);
                 }

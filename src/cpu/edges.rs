@@ -4,28 +4,33 @@
 //! An edge is a *candidate* when all of its adjacent, non-culled, non-degenerate faces lie on one
 //! side of it in screen space: an open boundary edge (one face), a contour edge (two faces folded
 //! onto the same side) or a non-manifold edge whose faces all lie on one side. An edge with faces
-//! on both sides is inside the silhouette and skipped. The side test uses the snapped fixed-point
-//! coordinates of the `coverage` stage, so it is exact and the same on every backend.
+//! on both sides is inside the silhouette and skipped.
+//!
+//! The side test uses the unsnapped `f32` screen positions with an `f64` cross product (the sign
+//! is exact for pixel-range coordinates), i.e. the same geometry as the backward (`edge_grad`)
+//! and the exact-area ideal image it differentiates. The snapped fixed-point coordinates of the `coverage`
+//! stage must not be used here: a sliver face seen nearly edge-on (common along a contour) can
+//! flip or vanish when snapped, which moves the silhouette to the wrong edges and lets the
+//! sliver occlude the edges that remain.
 
 use rayon::prelude::*;
 
-use crate::layout::{RasterParams, ScreenVertex};
+use crate::layout::ScreenVertex;
 use crate::mesh::Topology;
 
 /// Side of the inside of a candidate edge `[a, b]`: `+1` when the faces lie to the left of
 /// `a → b` (where `cross(b − a, p − a) > 0`, screen y down), `-1` to the right, `0` when the edge
 /// is not a candidate.
-pub fn edge_side(params: &RasterParams, screen: &[ScreenVertex], topology: &Topology, edge: usize) -> i32 {
+pub fn edge_side(screen: &[ScreenVertex], topology: &Topology, edge: usize) -> i32 {
     let [a, b] = topology.edges()[edge];
-    let snap = |v: u32| {
+    let pos = |v: u32| {
         let p = screen[v as usize].position;
-        [params.snap(p[0]) as i64, params.snap(p[1]) as i64]
+        [p[0] as f64, p[1] as f64]
     };
-    let (sa, sb) = (screen[a as usize], screen[b as usize]);
-    if sa.valid == 0 || sb.valid == 0 {
+    if screen[a as usize].valid == 0 || screen[b as usize].valid == 0 {
         return 0;
     }
-    let (pa, pb) = (snap(a), snap(b));
+    let (pa, pb) = (pos(a), pos(b));
     let (mut left, mut right) = (false, false);
     for &face in topology.edge_faces(edge) {
         let tri = topology.triangles()[face as usize];
@@ -33,10 +38,11 @@ pub fn edge_side(params: &RasterParams, screen: &[ScreenVertex], topology: &Topo
         if screen[w as usize].valid == 0 {
             continue; // culled face: not drawn, so not a side
         }
-        let pw = snap(w);
+        let pw = pos(w);
+        // f32 differences and their products are exact in f64, so the sign is exact.
         let cross = (pb[0] - pa[0]) * (pw[1] - pa[1]) - (pb[1] - pa[1]) * (pw[0] - pa[0]);
-        left |= cross > 0;
-        right |= cross < 0;
+        left |= cross > 0.0;
+        right |= cross < 0.0;
     }
     match (left, right) {
         (true, false) => 1,
@@ -46,8 +52,8 @@ pub fn edge_side(params: &RasterParams, screen: &[ScreenVertex], topology: &Topo
 }
 
 /// Classifies every edge of the topology. Reads the screen vertices; writes `sides` (one per edge).
-pub fn edges(params: &RasterParams, screen: &[ScreenVertex], topology: &Topology, sides: &mut [i32]) {
+pub fn edges(screen: &[ScreenVertex], topology: &Topology, sides: &mut [i32]) {
     sides.par_iter_mut().with_min_len(4096).enumerate().for_each(|(e, side)| {
-        *side = edge_side(params, screen, topology, e);
+        *side = edge_side(screen, topology, e);
     });
 }

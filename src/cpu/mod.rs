@@ -1,7 +1,7 @@
 //! The CPU backend: one function per stage, each the twin of the WGSL shader of the same name
 //! (DESIGN.md §4), parallel with rayon where it pays.
 //!
-//! Forward: [`project`](project::project) → [`bin`](bin::bin) → [`coverage`](coverage::coverage)
+//! Forward: [`project`](project::project) (+ [`snap`](project::snap)) → [`bin`](bin::bin) → [`coverage`](coverage::coverage)
 //! → [`resolve`](resolve::resolve) → [`edges`](edges::edges).
 //! Backward: [`edge_grad`](edge_grad::edge_grad) → [`gather`](gather::gather).
 
@@ -27,6 +27,8 @@ pub struct ViewState {
     pub params: RasterParams,
     /// Projected vertices.
     pub screen: Vec<ScreenVertex>,
+    /// Projected vertices snapped to the fixed-point grid.
+    pub snapped: Vec<[i32; 2]>,
     /// Tile → triangle lists.
     pub bins: Bins,
     /// Per-edge silhouette side from the `edges` stage.
@@ -38,16 +40,18 @@ pub struct ViewState {
 /// Forward of one view from screen vertices: returns the state and the image.
 pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topology: &Topology) -> (ViewState, Vec<f32>) {
     let triangles = topology.triangles();
-    params.set_tile_size(bin::choose_tile_size(&params, &screen, triangles));
+    let mut snapped = vec![[0; 2]; screen.len()];
+    project::snap(&params, &screen, &mut snapped);
+    params.set_tile_size(bin::choose_tile_size(&params, &snapped, triangles));
     let mut bins = Bins::default();
-    let culled_triangles = bin::bin(&params, &screen, triangles, &mut bins);
+    let culled_triangles = bin::bin(&params, &screen, &snapped, triangles, &mut bins);
     let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-    coverage::coverage(&params, &screen, triangles, &bins, &mut masks);
+    coverage::coverage(&params, &snapped, triangles, &bins, &mut masks);
     let mut image = vec![0.0; params.pixel_count()];
     resolve::resolve(&params, &masks, &mut image);
     let mut sides = vec![0; topology.edges().len()];
-    edges::edges(&params, &screen, topology, &mut sides);
-    (ViewState { params, screen, bins, sides, culled_triangles }, image)
+    edges::edges(&screen, topology, &mut sides);
+    (ViewState { params, screen, snapped, bins, sides, culled_triangles }, image)
 }
 
 /// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.

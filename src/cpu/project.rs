@@ -4,7 +4,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::camera::ViewParams;
-use crate::layout::ScreenVertex;
+use crate::layout::{RasterParams, ScreenVertex};
 
 /// Projects every vertex with `view`; clipped vertices get `valid = 0` and position zero.
 /// Reads `positions`, writes `screen` (same length).
@@ -12,5 +12,14 @@ pub fn project(view: &ViewParams, positions: &[Vec3], screen: &mut [ScreenVertex
     screen.par_iter_mut().with_min_len(4096).zip(positions.par_iter()).for_each(|(out, &p)| {
         let (position, valid) = view.project(p);
         *out = ScreenVertex { position: position.to_array(), valid: valid as u32, pad: 0 };
+    });
+}
+
+/// Snaps every screen vertex to the fixed-point grid of `params` (the `snap` step that ends
+/// `shaders/project.wgsl`); clipped vertices become [`INVALID_SNAPPED`](crate::layout::INVALID_SNAPPED).
+/// Reads `screen`, writes `snapped` (same length).
+pub fn snap(params: &RasterParams, screen: &[ScreenVertex], snapped: &mut [[i32; 2]]) {
+    snapped.par_iter_mut().with_min_len(4096).zip(screen.par_iter()).for_each(|(out, v)| {
+        *out = params.snap_vertex(v);
     });
 }
