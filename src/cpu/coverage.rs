@@ -291,8 +291,8 @@ impl SnappedTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layout::ScreenVertex;
 
-    /// The fast paths set exactly the samples the reference predicate `covers` accepts.
     #[test]
     fn floor_div_is_exact() {
         for (n, m) in
@@ -302,6 +302,7 @@ mod tests {
         }
     }
 
+    /// The fast paths set exactly the samples the reference predicate `covers` accepts.
     #[test]
     fn fast_paths_match_the_per_sample_predicate() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
