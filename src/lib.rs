@@ -6,16 +6,21 @@
 pub mod camera;
 pub mod closed_form;
 pub mod cpu;
+pub mod figure;
 mod error;
 pub mod gpu;
+pub mod gltf_io;
 mod image;
 pub mod io;
 pub mod layout;
 pub mod loss;
 pub mod mesh;
+pub mod optim;
 pub mod oracle;
 mod render;
+pub mod self_intersection;
 pub mod shapes;
+pub mod skin;
 
 pub use camera::{Camera, Projection, ViewParams};
 pub use error::{Error, Result};
