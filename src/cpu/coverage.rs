@@ -8,7 +8,6 @@
 
 use rayon::prelude::*;
 
-use super::bin::Bins;
 use crate::layout::{RasterParams, INVALID_SNAPPED};
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
@@ -83,42 +82,97 @@ impl SnappedTriangle {
     }
 }
 
-/// Writes every pixel's sample mask. Reads the snapped vertices, triangles and tile bins of one
-/// view; writes `masks` (`pixel_count · words_per_pixel` words, zeroed here first).
+/// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
+/// writes `masks` (`pixel_count · words_per_pixel` words).
 ///
-/// Small triangles are tested sample by sample with incremental edge functions, large ones row by
-/// row with [`SnappedTriangle::row_span`]; both evaluate the same predicate exactly.
-pub fn coverage(params: &RasterParams, snapped: &[[i32; 2]], triangles: &[[u32; 3]], bins: &Bins, masks: &mut [u32]) {
+/// The CPU splits the image into horizontal bands, one task each, with per-band triangle lists
+/// (the WGSL stage works per tile from the `bin` stage's lists instead; the masks are the same
+/// because coverage is an OR over triangles). Small triangles are tested sample by sample with
+/// incremental edge functions, large ones row by row with exact spans; both evaluate
+/// [`SnappedTriangle::covers`] exactly.
+pub fn coverage(params: &RasterParams, snapped: &[[i32; 2]], triangles: &[[u32; 3]], masks: &mut [u32]) {
     let f = params.supersample as i64;
     let wpp = params.words_per_pixel as usize;
     let row_words = params.width as usize * wpp;
-    let tile = params.tile_size as i64;
-    masks.par_chunks_mut(row_words * params.tile_size as usize).enumerate().for_each(|(ty, rows)| {
+    let band_rows = band_height(params.height, triangles.len());
+    let bands = params.height.div_ceil(band_rows) as usize;
+    let lists = band_lists(params, snapped, triangles, band_rows, bands);
+    masks.par_chunks_mut(row_words * band_rows as usize).enumerate().for_each(|(band_index, rows)| {
         rows.fill(0);
-        let pixel_row0 = ty as i64 * tile;
-        let tile_rows = (pixel_row0 * f, (pixel_row0 + tile).min(params.height as i64) * f - 1);
+        let pixel_row0 = band_index as i64 * band_rows as i64;
+        let band_sample_rows = (pixel_row0 * f, (pixel_row0 + band_rows as i64).min(params.height as i64) * f - 1);
+        let image_cols = (0, params.width as i64 * f - 1);
         let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
-        for tx in 0..params.tiles_x as i64 {
-            let tile_cols = (tx * tile * f, ((tx + 1) * tile).min(params.width as i64) * f - 1);
-            for &t in bins.tile_triangles((ty as i64 * params.tiles_x as i64 + tx) as usize) {
-                let Some(tri) = SnappedTriangle::new(snapped, triangles[t as usize]) else { continue };
-                let (cols, rows) = tri.sample_box(params);
-                let cols = (cols.0.max(tile_cols.0), cols.1.min(tile_cols.1));
-                let rows = (rows.0.max(tile_rows.0), rows.1.min(tile_rows.1));
-                if cols.0 > cols.1 || rows.0 > rows.1 {
-                    continue;
-                }
-                if cols.1 - cols.0 < 8 {
-                    tri.raster_samples(params, cols, rows, &mut band);
-                } else {
-                    tri.raster_rows(params, cols, rows, &mut band);
-                }
+        for &t in &lists.1[lists.0[band_index] as usize..lists.0[band_index + 1] as usize] {
+            let Some(tri) = SnappedTriangle::new(snapped, triangles[t as usize]) else { continue };
+            let (cols, rows) = tri.sample_box(params);
+            let cols = (cols.0.max(image_cols.0), cols.1.min(image_cols.1));
+            let rows = (rows.0.max(band_sample_rows.0), rows.1.min(band_sample_rows.1));
+            if cols.0 > cols.1 || rows.0 > rows.1 {
+                continue;
+            }
+            if cols.1 - cols.0 < 8 {
+                tri.raster_samples(params, cols, rows, &mut band);
+            } else {
+                tri.raster_rows(params, cols, rows, &mut band);
             }
         }
     });
 }
 
-/// The mask rows of one tile row, written by one thread.
+/// Pixel rows per band: enough bands to keep both cores busy and the per-band mask block in
+/// cache, few enough that a triangle rarely spans two.
+fn band_height(height: u32, triangles: usize) -> u32 {
+    let bands = if triangles < 64 { 4 } else { 16 };
+    height.div_ceil(bands).max(1)
+}
+
+/// CSR lists of the triangles whose snapped rows overlap each band, in triangle order.
+fn band_lists(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    triangles: &[[u32; 3]],
+    band_rows: u32,
+    bands: usize,
+) -> (Vec<u32>, Vec<u32>) {
+    let units = params.units as i64;
+    let range = |tri: &[u32; 3]| -> Option<(usize, usize)> {
+        let ys = tri.map(|i| snapped[i as usize]);
+        if ys.contains(&INVALID_SNAPPED) {
+            return None;
+        }
+        let lo = (ys[0][1].min(ys[1][1]).min(ys[2][1]) as i64).div_euclid(units);
+        let hi = (ys[0][1].max(ys[1][1]).max(ys[2][1]) as i64).div_euclid(units);
+        if hi < 0 || lo >= params.height as i64 {
+            return None;
+        }
+        let band = |row: i64| (row.clamp(0, params.height as i64 - 1) as u32 / band_rows) as usize;
+        Some((band(lo), band(hi)))
+    };
+    let ranges: Vec<Option<(usize, usize)>> = triangles.par_iter().with_min_len(4096).map(range).collect();
+    let mut offsets = vec![0u32; bands + 1];
+    for &(lo, hi) in ranges.iter().flatten() {
+        for b in lo..=hi {
+            offsets[b + 1] += 1;
+        }
+    }
+    for b in 0..bands {
+        offsets[b + 1] += offsets[b];
+    }
+    let mut cursor = offsets.clone();
+    let mut list = vec![0u32; offsets[bands] as usize];
+    for (t, r) in ranges.iter().enumerate() {
+        if let Some((lo, hi)) = *r {
+            for c in &mut cursor[lo..=hi] {
+                list[*c as usize] = t as u32;
+                *c += 1;
+            }
+        }
+    }
+    (offsets, list)
+}
+
+/// The mask rows of one band, written by one thread.
 struct Band<'a> {
     params: &'a RasterParams,
     rows: &'a mut [u32],
@@ -329,10 +383,8 @@ mod tests {
                     .collect();
                 let tris = [[0u32, 1, 2]];
                 let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
-                let mut bins = Bins::default();
-                super::super::bin::bin(&params, &screen, &snapped, &tris, &mut bins);
                 let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-                coverage(&params, &snapped, &tris, &bins, &mut masks);
+                coverage(&params, &snapped, &tris, &mut masks);
                 let tri = SnappedTriangle::new(&snapped, tris[0]);
                 let h = params.half_step as i64;
                 for sy in 0..(params.height * f) as i64 {

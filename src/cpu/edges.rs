@@ -6,8 +6,8 @@
 //! onto the same side) or a non-manifold edge whose faces all lie on one side. An edge with faces
 //! on both sides is inside the silhouette and skipped.
 //!
-//! The side test uses the unsnapped `f32` screen positions with an `f64` cross product (the sign
-//! is exact for pixel-range coordinates), i.e. the same geometry as the backward (`edge_grad`)
+//! The side test uses the unsnapped `f32` screen positions with an `f64` cross product, computed
+//! once per face ([`face_orientations`]); the sign is exact. It is the same geometry as the backward (`edge_grad`)
 //! and the exact-area ideal image it differentiates. The snapped fixed-point coordinates of the `coverage`
 //! stage must not be used here: a sliver face seen nearly edge-on (common along a contour) can
 //! flip or vanish when snapped, which moves the silhouette to the wrong edges and lets the
@@ -18,31 +18,45 @@ use rayon::prelude::*;
 use crate::layout::ScreenVertex;
 use crate::mesh::Topology;
 
+/// Orientation of every face in screen space: the sign of `cross(v1 − v0, v2 − v0)` (+1, −1), or 0
+/// for a face with a clipped vertex or zero area. f32 differences and their products are exact
+/// in f64, so the sign is exact. Reads the screen vertices; writes `orientation` (one per face).
+pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orientation: &mut [i8]) {
+    orientation.par_iter_mut().with_min_len(4096).zip(triangles.par_iter()).for_each(|(o, tri)| {
+        let v = tri.map(|i| screen[i as usize]);
+        if v.iter().any(|s| s.valid == 0) {
+            *o = 0;
+            return;
+        }
+        let p = v.map(|s| [s.position[0] as f64, s.position[1] as f64]);
+        let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+        *o = if cross > 0.0 {
+            1
+        } else if cross < 0.0 {
+            -1
+        } else {
+            0
+        };
+    });
+}
+
 /// Side of the inside of a candidate edge `[a, b]`: `+1` when the faces lie to the left of
 /// `a → b` (where `cross(b − a, p − a) > 0`, screen y down), `-1` to the right, `0` when the edge
-/// is not a candidate.
-pub fn edge_side(screen: &[ScreenVertex], topology: &Topology, edge: usize) -> i32 {
+/// is not a candidate. A face `(.., a, b, ..)` that runs `a → b` lies on the side of its own
+/// orientation; one that runs `b → a` on the other.
+pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
     let [a, b] = topology.edges()[edge];
-    let pos = |v: u32| {
-        let p = screen[v as usize].position;
-        [p[0] as f64, p[1] as f64]
-    };
-    if screen[a as usize].valid == 0 || screen[b as usize].valid == 0 {
-        return 0;
-    }
-    let (pa, pb) = (pos(a), pos(b));
     let (mut left, mut right) = (false, false);
     for &face in topology.edge_faces(edge) {
-        let tri = topology.triangles()[face as usize];
-        let Some(&w) = tri.iter().find(|&&v| v != a && v != b) else { continue };
-        if screen[w as usize].valid == 0 {
-            continue; // culled face: not drawn, so not a side
+        let o = orientation[face as usize];
+        if o == 0 {
+            continue; // culled or degenerate: covers nothing on either side
         }
-        let pw = pos(w);
-        // f32 differences and their products are exact in f64, so the sign is exact.
-        let cross = (pb[0] - pa[0]) * (pw[1] - pa[1]) - (pb[1] - pa[1]) * (pw[0] - pa[0]);
-        left |= cross > 0.0;
-        right |= cross < 0.0;
+        let tri = topology.triangles()[face as usize];
+        let forward = (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b);
+        let side = if forward { o } else { -o };
+        left |= side > 0;
+        right |= side < 0;
     }
     match (left, right) {
         (true, false) => 1,
@@ -51,9 +65,10 @@ pub fn edge_side(screen: &[ScreenVertex], topology: &Topology, edge: usize) -> i
     }
 }
 
-/// Classifies every edge of the topology. Reads the screen vertices; writes `sides` (one per edge).
-pub fn edges(screen: &[ScreenVertex], topology: &Topology, sides: &mut [i32]) {
+/// Classifies every edge of the topology. Reads the face orientations; writes `sides` (one per
+/// edge).
+pub fn edges(orientation: &[i8], topology: &Topology, sides: &mut [i32]) {
     sides.par_iter_mut().with_min_len(4096).enumerate().for_each(|(e, side)| {
-        *side = edge_side(screen, topology, e);
+        *side = edge_side(orientation, topology, e);
     });
 }

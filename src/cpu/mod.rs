@@ -2,7 +2,8 @@
 //! (DESIGN.md §4), parallel with rayon where it pays.
 //!
 //! Forward: [`project`](project::project) (+ [`snap`](project::snap)) → [`bin`](bin::bin) → [`coverage`](coverage::coverage)
-//! → [`resolve`](resolve::resolve) → [`edges`](edges::edges).
+//! → [`resolve`](resolve::resolve) → [`edges`](edges::edges) (after
+//! [`face_orientations`](edges::face_orientations)).
 //! Backward: [`edge_grad`](edge_grad::edge_grad) → [`gather`](gather::gather).
 
 pub mod bin;
@@ -46,11 +47,13 @@ pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topolog
     let mut bins = Bins::default();
     let culled_triangles = bin::bin(&params, &screen, &snapped, triangles, &mut bins);
     let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-    coverage::coverage(&params, &snapped, triangles, &bins, &mut masks);
+    coverage::coverage(&params, &snapped, triangles, &mut masks);
     let mut image = vec![0.0; params.pixel_count()];
     resolve::resolve(&params, &masks, &mut image);
+    let mut orientation = vec![0i8; triangles.len()];
+    edges::face_orientations(&screen, triangles, &mut orientation);
     let mut sides = vec![0; topology.edges().len()];
-    edges::edges(&screen, topology, &mut sides);
+    edges::edges(&orientation, topology, &mut sides);
     (ViewState { params, screen, snapped, bins, sides, culled_triangles }, image)
 }
 
