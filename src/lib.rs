@@ -7,6 +7,7 @@ pub mod camera;
 pub mod closed_form;
 pub mod cpu;
 pub mod figure;
+pub mod fit;
 mod error;
 pub mod gpu;
 pub mod gltf_io;
