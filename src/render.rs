@@ -1,4 +1,4 @@
-//! The public rendering API: settings, the renderer, frames and their backward.
+//! The public rendering API: settings, the renderer and its backend, frames and their backward.
 
 use std::sync::Arc;
 
@@ -7,6 +7,8 @@ use glam::{Vec2, Vec3};
 use crate::camera::{Camera, ViewParams};
 use crate::cpu;
 use crate::cpu::edge_grad::SegmentStats;
+use crate::gpu::backend::{GpuBackend, GpuFrame, Input};
+use crate::gpu::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions};
 use crate::layout::{RasterParams, ScreenVertex};
 use crate::mesh::{Mesh, Topology};
 use crate::{Error, Image, Result};
@@ -55,9 +57,41 @@ pub struct ScreenView {
     pub height: u32,
 }
 
+/// Which backend a [`Renderer`] runs on.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// The CPU backend (Rust, parallel with rayon).
+    Cpu,
+    /// The WGSL backend on the GPU adapter these options choose (e.g.
+    /// [`GpuOptions::from_env`]); a software adapter such as lavapipe is used when it is the one
+    /// chosen. Fails with [`Error::NoAdapter`] when there is none.
+    Gpu(GpuOptions),
+    /// A hardware GPU when there is one, else the CPU backend: a software GPU (lavapipe,
+    /// llvmpipe, SwiftShader) emulates the GPU on the CPU and is slower than the CPU backend, so
+    /// it is only used when asked for, by name or backend, through `DIFFSIL_ADAPTER` (or with
+    /// [`Backend::Gpu`]). If the GPU cannot be opened, the CPU backend is used.
+    #[default]
+    Auto,
+}
+
+enum Engine {
+    Cpu,
+    Gpu(Box<GpuBackend>),
+}
+
 enum Source {
     Screen,
     World { positions: Vec<Vec3>, views: Vec<ViewParams> },
+}
+
+/// What the backward of a frame needs, per backend.
+enum FrameState {
+    /// The CPU backend keeps each view's state.
+    Cpu(Vec<cpu::ViewState>),
+    /// The GPU backend keeps its state in GPU buffers; the frame keeps what it needs to run the
+    /// forward again should those buffers have been reused since (and, for screen-space input,
+    /// the screen vertices).
+    Gpu { frame: GpuFrame, params: Vec<RasterParams>, screens: Vec<Vec<ScreenVertex>> },
 }
 
 /// The result of a forward: the images, per-view statistics, and what the backward needs.
@@ -66,7 +100,7 @@ pub struct Frame {
     stats: Vec<RenderStats>,
     topology: Arc<Topology>,
     source: Source,
-    views: Vec<cpu::ViewState>,
+    state: FrameState,
 }
 
 impl Frame {
@@ -86,8 +120,25 @@ impl Frame {
     }
 
     /// Projected vertex positions of view `view` (zero for clipped vertices).
+    ///
+    /// On the GPU backend, for a frame rendered from 3D input, these are computed on the CPU with
+    /// the same arithmetic as the GPU's `project` stage (bit-identical; see `shaders/project.wgsl`),
+    /// so no readback is needed.
     pub fn screen_vertices(&self, view: usize) -> Vec<Vec2> {
-        self.views[view].screen.iter().map(|s| Vec2::from(s.position)).collect()
+        match (&self.state, &self.source) {
+            (FrameState::Cpu(views), _) => views[view].screen.iter().map(|s| Vec2::from(s.position)).collect(),
+            (FrameState::Gpu { screens, .. }, Source::Screen) => {
+                screens[view].iter().map(|s| Vec2::from(s.position)).collect()
+            }
+            (FrameState::Gpu { .. }, Source::World { positions, views }) => {
+                positions.iter().map(|&p| views[view].project(p).0).collect()
+            }
+        }
+    }
+
+    /// Width and height of each view.
+    fn view_sizes(&self) -> Vec<(u32, u32)> {
+        self.images.iter().map(|i| (i.width(), i.height())).collect()
     }
 }
 
@@ -108,16 +159,82 @@ impl Frame {
 /// assert_eq!(grad.len(), 3);
 /// # Ok::<(), diffsil::Error>(())
 /// ```
+///
+/// The same calls run on either backend ([`Renderer::with_backend`]); the GPU backend returns the
+/// same images (bit for bit for screen-space input) and the same gradients (to f32 rounding).
 pub struct Renderer {
     settings: RenderSettings,
     last_backward: Vec<BackwardStats>,
+    engine: Engine,
+    note: Option<String>,
 }
 
 impl Renderer {
     /// A renderer on the CPU backend. Errors if the settings are invalid.
     pub fn new(settings: RenderSettings) -> Result<Renderer> {
         RasterParams::new(1, 1, settings.supersample, settings.inside, settings.outside)?;
-        Ok(Renderer { settings, last_backward: Vec::new() })
+        Ok(Renderer { settings, last_backward: Vec::new(), engine: Engine::Cpu, note: None })
+    }
+
+    /// A renderer on `backend`. Errors if the settings are invalid, or for [`Backend::Gpu`] when no
+    /// adapter matches or the device or the pipelines cannot be created ([`Backend::Auto`] falls
+    /// back to the CPU instead, see [`Renderer::backend_name`]).
+    pub fn with_backend(settings: RenderSettings, backend: Backend) -> Result<Renderer> {
+        let mut renderer = Renderer::new(settings)?;
+        match backend {
+            Backend::Cpu => {}
+            Backend::Gpu(options) => {
+                renderer.engine = Engine::Gpu(Box::new(GpuBackend::new(GpuContext::new(&options)?)?));
+            }
+            Backend::Auto => {
+                let from_env = GpuOptions::from_env();
+                let options = if from_env.adapter != AdapterChoice::Best {
+                    Some(from_env)
+                } else if hardware_gpu_available() {
+                    Some(GpuOptions::default())
+                } else {
+                    renderer.note = Some("no hardware GPU".into());
+                    None
+                };
+                if let Some(options) = options {
+                    match GpuContext::new(&options).and_then(GpuBackend::new) {
+                        Ok(gpu) => renderer.engine = Engine::Gpu(Box::new(gpu)),
+                        Err(e) => renderer.note = Some(format!("GPU unavailable: {e}")),
+                    }
+                }
+            }
+        }
+        Ok(renderer)
+    }
+
+    /// A renderer on the GPU backend, on a context the caller opened.
+    pub fn with_gpu_context(settings: RenderSettings, context: GpuContext) -> Result<Renderer> {
+        let mut renderer = Renderer::new(settings)?;
+        renderer.engine = Engine::Gpu(Box::new(GpuBackend::new(context)?));
+        Ok(renderer)
+    }
+
+    /// A one-line description of the backend, for logs and examples: `cpu`, or `gpu: <adapter>`
+    /// (and, for [`Backend::Auto`] on the CPU, why).
+    pub fn backend_name(&self) -> String {
+        match (&self.engine, &self.note) {
+            (Engine::Cpu, None) => "cpu".into(),
+            (Engine::Cpu, Some(note)) => format!("cpu ({note})"),
+            (Engine::Gpu(gpu), _) => format!("gpu: {}", gpu.adapter()),
+        }
+    }
+
+    /// The GPU adapter, on the GPU backend.
+    pub fn adapter(&self) -> Option<&AdapterReport> {
+        match &self.engine {
+            Engine::Cpu => None,
+            Engine::Gpu(gpu) => Some(gpu.adapter()),
+        }
+    }
+
+    /// Whether this renderer runs on the GPU backend.
+    pub fn is_gpu(&self) -> bool {
+        matches!(self.engine, Engine::Gpu(_))
     }
 
     /// The settings.
@@ -128,16 +245,27 @@ impl Renderer {
     /// Renders `mesh` from each camera. Images may differ in size per camera.
     pub fn render(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
         let mut views = Vec::with_capacity(cameras.len());
-        let mut screens = Vec::with_capacity(cameras.len());
+        let mut params = Vec::with_capacity(cameras.len());
         for camera in cameras {
             camera.validate()?;
-            let view = camera.params();
-            let params = self.raster_params(camera.width, camera.height)?;
-            let mut screen = vec![ScreenVertex::default(); mesh.positions().len()];
-            cpu::project::project(&view, mesh.positions(), &mut screen);
-            views.push(view);
-            screens.push((params, screen));
+            views.push(camera.params());
+            params.push(self.raster_params(camera.width, camera.height)?);
         }
+        if let Engine::Gpu(gpu) = &mut self.engine {
+            let input = Input::World { positions: mesh.positions(), cameras: &views };
+            let out = gpu.forward(mesh.topology(), &params, input)?;
+            let source = Source::World { positions: mesh.positions().to_vec(), views };
+            return gpu_frame(mesh.topology().clone(), params, out, source, Vec::new());
+        }
+        let screens = views
+            .iter()
+            .zip(params)
+            .map(|(view, params)| {
+                let mut screen = vec![ScreenVertex::default(); mesh.positions().len()];
+                cpu::project::project(view, mesh.positions(), &mut screen);
+                (params, screen)
+            })
+            .collect();
         let source = Source::World { positions: mesh.positions().to_vec(), views };
         Ok(self.forward(mesh.topology().clone(), screens, source))
     }
@@ -168,6 +296,11 @@ impl Renderer {
                 .collect();
             screens.push((params, screen));
         }
+        if let Engine::Gpu(gpu) = &mut self.engine {
+            let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) = screens.into_iter().unzip();
+            let out = gpu.forward(topology, &params, Input::Screen(&screens))?;
+            return gpu_frame(topology.clone(), params, out, Source::Screen, screens);
+        }
         Ok(self.forward(topology.clone(), screens, Source::Screen))
     }
 
@@ -195,7 +328,7 @@ impl Renderer {
             images.push(Image::from_vec(params.width, params.height, image).expect("image sized by the raster"));
             views.push(state);
         }
-        Frame { images, stats, topology, source, views }
+        Frame { images, stats, topology, source, state: FrameState::Cpu(views) }
     }
 
     /// Backward in screen space: `∂L/∂I` per view → `∂L/∂(screen vertex)` per view.
@@ -207,18 +340,40 @@ impl Renderer {
                 got: d_images.len(),
             });
         }
-        let mut out = Vec::with_capacity(d_images.len());
-        self.last_backward.clear();
-        for (state, d_image) in frame.views.iter().zip(d_images) {
-            d_image.expect_size("image gradient", state.params.width, state.params.height)?;
+        for ((width, height), d_image) in frame.view_sizes().into_iter().zip(d_images) {
+            d_image.expect_size("image gradient", width, height)?;
             if let Some(p) = d_image.data().iter().position(|g| !g.is_finite()) {
                 return Err(Error::InvalidSettings(format!("image gradient has a non-finite value at pixel {p}")));
             }
-            let (grads, stats) = cpu::backward_view(state, &frame.topology, d_image.data());
-            self.last_backward.push(stats);
-            out.push(grads);
         }
-        Ok(out)
+        self.last_backward.clear();
+        match (&mut self.engine, &frame.state) {
+            (Engine::Cpu, FrameState::Cpu(views)) => {
+                let mut out = Vec::with_capacity(d_images.len());
+                for (state, d_image) in views.iter().zip(d_images) {
+                    let (grads, stats) = cpu::backward_view(state, &frame.topology, d_image.data());
+                    self.last_backward.push(stats);
+                    out.push(grads);
+                }
+                Ok(out)
+            }
+            (Engine::Gpu(gpu), FrameState::Gpu { frame: gpu_frame, params, screens }) => {
+                let input = match &frame.source {
+                    Source::Screen => Input::Screen(screens),
+                    Source::World { positions, views } => Input::World { positions, cameras: views },
+                };
+                let d: Vec<&[f32]> = d_images.iter().map(|i| i.data()).collect();
+                let (out, stats) = gpu.backward(*gpu_frame, &frame.topology, params, input, &d)?;
+                self.last_backward = stats;
+                Ok(out)
+            }
+            (engine, _) => Err(Error::InvalidFrame(format!(
+                "this frame was rendered by the {} backend, but this renderer runs on the {} backend: \
+                 differentiate a frame with a renderer on the backend that rendered it",
+                if matches!(engine, Engine::Cpu) { "GPU" } else { "CPU" },
+                if matches!(engine, Engine::Cpu) { "CPU" } else { "GPU" },
+            ))),
+        }
     }
 
     /// Backward through the cameras: `∂L/∂I` per view → `∂L/∂(3D vertex)`, summed over views.
@@ -246,4 +401,25 @@ impl Renderer {
     pub fn last_backward_stats(&self) -> &[BackwardStats] {
         &self.last_backward
     }
+}
+
+/// A [`Frame`] from a GPU forward.
+fn gpu_frame(
+    topology: Arc<Topology>,
+    params: Vec<RasterParams>,
+    out: crate::gpu::backend::ForwardOutput,
+    source: Source,
+    screens: Vec<Vec<ScreenVertex>>,
+) -> Result<Frame> {
+    let mut images = Vec::with_capacity(params.len());
+    let mut stats = Vec::with_capacity(params.len());
+    for (k, (p, image)) in params.iter().zip(out.images).enumerate() {
+        images.push(Image::from_vec(p.width, p.height, image)?);
+        stats.push(RenderStats {
+            culled_triangles: out.culled[k],
+            candidate_edges: out.candidates[k],
+            tile_size: crate::gpu::backend::TILE_SIZE,
+        });
+    }
+    Ok(Frame { images, stats, topology, source, state: FrameState::Gpu { frame: out.frame, params, screens } })
 }

@@ -341,6 +341,66 @@ impl GpuContext {
         })
     }
 
+    /// A bind group for `group` of `pipeline` (automatic layout) binding each `(binding, buffer)`
+    /// pair, whole. Unlike [`GpuContext::bind_buffers`] the bindings need not be consecutive (an
+    /// entry point's automatic layout holds only the bindings it uses).
+    pub fn bind_entries(
+        &self,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        group: u32,
+        entries: &[(u32, &wgpu::Buffer)],
+    ) -> Result<wgpu::BindGroup> {
+        self.scoped(&format!("binding buffers for `{label}`"), || {
+            let layout = pipeline.get_bind_group_layout(group);
+            let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
+                .iter()
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect();
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &layout,
+                entries: &entries,
+            })
+        })
+    }
+
+    /// A `MAP_READ | COPY_DST` staging buffer of at least `bytes` bytes (rounded up to a multiple
+    /// of 4), to copy results into and read them with [`GpuContext::read_staging`].
+    pub fn staging_buffer(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
+        let size = padded_size(bytes);
+        self.check_size("max_buffer_size", size, self.limits.max_buffer_size)?;
+        self.create_buffer(label, size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, None)
+    }
+
+    /// Maps the first `bytes` bytes (a multiple of 4) of `staging` after all submitted work has
+    /// finished, copies them out and unmaps.
+    pub fn read_staging(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+        if bytes == 0 {
+            return Ok(Vec::new());
+        }
+        let slice = staging.slice(..bytes);
+        let (sender, receiver) = mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            let _ = sender.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
+        let mapped = receiver.recv().map_err(|_| Error::Gpu("the map callback never ran".into()))?;
+        if let Err(e) = mapped {
+            self.check_errors()?;
+            return Err(Error::Gpu(format!("mapping a staging buffer failed: {e}")));
+        }
+        let data = slice.get_mapped_range().map(|view| view.to_vec());
+        staging.unmap();
+        self.check_errors()?;
+        data.map_err(|e| Error::Gpu(format!("reading a staging buffer: {e}")))
+    }
+
     fn check_size(&self, limit: &'static str, needed: u64, max: u64) -> Result<()> {
         if needed > max {
             Err(Error::GpuLimit { limit, needed, max })

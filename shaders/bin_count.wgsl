@@ -1,0 +1,58 @@
+// `bin_count` — first half of the GPU twin of `cpu::bin::bin` (src/cpu/bin.rs): counts the
+// triangles listed in every tile, and the culled triangles of every view.
+//
+// Reads:  `frame`, `screen` (all views), `triangles` (3 indices per triangle).
+// Writes: `counts[tile]` (+1 per listed triangle, atomic; cleared by the host before),
+//         `status[status_index(view, STATUS_CULLED)]` (+1 per culled triangle); a large triangle
+//         (more than LARGE_TILES tiles) is appended to its view's large list instead:
+//         `bins[large_offset + view · triangle_count + k]`, k from
+//         `status[status_index(view, STATUS_LARGE)]` (atomic).
+// Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
+// Then `scan` turns the counts into CSR offsets and `bin_fill` writes the lists.
+
+//!include shared/tiles.wgsl
+//!include shared/dispatch.wgsl
+
+@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(2) var<storage, read> triangles: array<u32>;
+@group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> bins: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.triangle_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let view = i / n;
+    let t = i % n;
+    let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
+    let base = view * frame.params.vertex_count;
+    let tiles = triangle_tiles(view, tri, screen[base + tri.x], screen[base + tri.y], screen[base + tri.z]);
+    if tiles.culled {
+        atomicAdd(&status[status_index(view, STATUS_CULLED)], 1u);
+        return;
+    }
+    let r = tiles.range;
+    if r.x < 0 {
+        return;
+    }
+    if is_large(r) {
+        let k = atomicAdd(&status[status_index(view, STATUS_LARGE)], 1u);
+        bins[frame.params.large_offset + view * n + k] = t;
+        return;
+    }
+    let v = frame.views[view];
+    for (var ty = r.y; ty <= r.w; ty++) {
+        let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
+        for (var tx = r.x; tx <= r.z; tx++) {
+            atomicAdd(&counts[row + u32(tx)], 1u);
+        }
+    }
+}

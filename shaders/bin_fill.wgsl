@@ -1,0 +1,55 @@
+// `bin_fill` — last half of the GPU twin of `cpu::bin::bin`: writes every listed triangle into
+// the lists of its tiles.
+//
+// Reads:  `frame`, `screen`, `triangles`, the CSR offsets `bins[0 ..= total_tiles]`.
+// Writes: `bins[bin_list_offset + offsets[tile] + k]` = triangle index, for k < counts[tile];
+//         `counts[tile]` is counted back down to 0 (atomic), which hands out the slots `k`.
+//         Nothing is written past `bin_capacity` (the host sees the needed size in `status`,
+//         grows the buffer and runs the frame again). Large triangles are skipped (`bin_count`
+//         listed them per view).
+// Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
+//
+// The order of the triangles inside a tile's list depends on the order of the atomics; nothing
+// downstream depends on it (coverage ORs sample bits, `edge_grad` merges intervals in sorted
+// order), so results are deterministic.
+
+//!include shared/tiles.wgsl
+//!include shared/dispatch.wgsl
+
+@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(2) var<storage, read> triangles: array<u32>;
+@group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> bins: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.triangle_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let view = i / n;
+    let t = i % n;
+    let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
+    let base = view * frame.params.vertex_count;
+    let tiles = triangle_tiles(view, tri, screen[base + tri.x], screen[base + tri.y], screen[base + tri.z]);
+    let r = tiles.range;
+    if r.x < 0 || is_large(r) {
+        return;
+    }
+    let v = frame.views[view];
+    for (var ty = r.y; ty <= r.w; ty++) {
+        let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
+        for (var tx = r.x; tx <= r.z; tx++) {
+            let tile = row + u32(tx);
+            let slot = bins[tile] + atomicSub(&counts[tile], 1u) - 1u;
+            if slot < frame.params.bin_capacity {
+                bins[frame.params.bin_list_offset + slot] = t;
+            }
+        }
+    }
+}

@@ -1,0 +1,305 @@
+// `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage.rs): the F×F sample masks of
+// every pixel of every view.
+//
+// Reads:  `frame`, `screen`, `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
+//         large-triangle lists), `status` (the large lists' lengths).
+// Writes: `masks[(pixel_offset + row · width + column) · words_per_pixel + w]` for every pixel of
+//         every view (each written exactly once, by the invocation that owns the pixel).
+// Dispatch: one workgroup per tile of GPU_TILE_SIZE² pixels, over the tiles of all views
+//         (`total_tiles` workgroups, tiled into a 2D grid beyond 65,535); invocation = pixel.
+//
+// The workgroup walks its tile's triangle list, then its view's large-triangle list, 256 triangles
+// at a time: each invocation snaps one triangle into workgroup memory (vertices, top-left biases,
+// sample bounding box), then every invocation tests its own pixel's samples against each of them.
+// A triangle covering the whole screen is therefore spread over all tiles and all pixels, never
+// serialised. Each invocation also reports its loop iteration count (`STATUS_MAX_ITERATIONS`, see
+// `stages::LLVMPIPE_LOOP_LIMIT`).
+//
+// The predicate is `SnappedTriangle::covers` exactly: vertices snapped with `snap` (bit-exact,
+// shared/exact.wgsl), edge functions E = dx·(py − ay) − dy·(px − ax) in exact integers, a sample
+// is covered when E + bias > 0 for all three edges (top-left rule). Triangles whose snapped
+// bounding box spans at most 2^14 units use 32-bit edge functions — every sample tested lies in
+// that box, so |dx|, |py − ay| ≤ 2^14 and |E| < 2^30: exact — and larger ones emulated 64-bit
+// integers (shared/int64.wgsl).
+
+//!include shared/frame.wgsl
+//!include shared/exact.wgsl
+//!include shared/dispatch.wgsl
+
+@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(2) var<storage, read> triangles: array<u32>;
+@group(0) @binding(3) var<storage, read> bins: array<u32>;
+@group(0) @binding(4) var<storage, read_write> masks: array<u32>;
+@group(0) @binding(5) var<storage, read_write> status: array<atomic<u32>>;
+
+const SMALL_EXTENT: i32 = 16384;
+const FLAG_NONEMPTY: i32 = 1;
+const FLAG_SMALL: i32 = 2;
+// Bits 2, 3, 4: top-left bias of edges 0, 1, 2.
+const FLAG_BIAS_SHIFT: u32 = 2u;
+
+// Per triangle of the current chunk: (v0.x, v0.y, v1.x, v1.y), (v2.x, v2.y, flags, 0) and the
+// sample box (first column, first row, last column, last row).
+var<workgroup> sh_v01: array<vec4<i32>, 256>;
+var<workgroup> sh_v2f: array<vec4<i32>, 256>;
+var<workgroup> sh_box: array<vec4<i32>, 256>;
+// (first tile-list entry, tile-list length, large-list length).
+var<workgroup> sh_range: vec3<u32>;
+var<workgroup> sh_stop: u32;
+
+struct Setup {
+    v01: vec4<i32>,
+    v2f: vec4<i32>,
+    box: vec4<i32>,
+}
+
+// `SnappedTriangle::new` and `sample_box`: the triangle snapped, made counter-clockwise in the
+// edge-function sense, with its biases and sample box; flags 0 when culled or of zero area.
+fn setup(view: u32, t: u32) -> Setup {
+    let empty = Setup(vec4<i32>(0), vec4<i32>(0), vec4<i32>(0));
+    let r = frame.views[view].raster;
+    let base = view * frame.params.vertex_count;
+    let s0 = screen[base + triangles[3u * t]];
+    let s1 = screen[base + triangles[3u * t + 1u]];
+    var s2 = screen[base + triangles[3u * t + 2u]];
+    if s0.valid == 0u || s1.valid == 0u || s2.valid == 0u {
+        return empty;
+    }
+    let a = vec2<i32>(snap(s0.position.x, r.units), snap(s0.position.y, r.units));
+    var b = vec2<i32>(snap(s1.position.x, r.units), snap(s1.position.y, r.units));
+    var c = vec2<i32>(snap(s2.position.x, r.units), snap(s2.position.y, r.units));
+    let area2 = i64_sub(i64_mul_i32(b.x - a.x, c.y - a.y), i64_mul_i32(b.y - a.y, c.x - a.x));
+    if i64_is_zero(area2) {
+        return empty;
+    }
+    if i64_is_negative(area2) {
+        let t = b;
+        b = c;
+        c = t;
+    }
+    var flags = FLAG_NONEMPTY;
+    let v = array<vec2<i32>, 3>(a, b, c);
+    for (var k = 0u; k < 3u; k++) {
+        let d = v[(k + 1u) % 3u] - v[k];
+        if d.y < 0 || (d.y == 0 && d.x > 0) {
+            flags |= 1 << (FLAG_BIAS_SHIFT + k);
+        }
+    }
+    let lo = min(min(a, b), c);
+    let hi = max(max(a, b), c);
+    if hi.x - lo.x <= SMALL_EXTENT && hi.y - lo.y <= SMALL_EXTENT {
+        flags |= FLAG_SMALL;
+    }
+    let h = i32(r.half_step);
+    let box = vec4<i32>(
+        floor_div(lo.x + h - 1, 2 * h),
+        floor_div(lo.y + h - 1, 2 * h),
+        floor_div(hi.x - h, 2 * h),
+        floor_div(hi.y - h, 2 * h),
+    );
+    return Setup(vec4<i32>(a, b), vec4<i32>(c, flags, 0), box);
+}
+
+// Sets bits lo..=hi of a pixel's mask words.
+fn set_bits(words: ptr<function, array<u32, 8>>, lo: u32, hi: u32) {
+    var b = lo;
+    while b <= hi {
+        let end = min(hi, b / 32u * 32u + 31u);
+        let n = end - b + 1u;
+        (*words)[b / 32u] |= select((1u << n) - 1u, 0xffffffffu, n == 32u) << (b % 32u);
+        b = end + 1u;
+    }
+}
+
+// E + bias > 0 for 64-bit E: E ≥ 0 with the top-left bias, E > 0 without.
+fn edge_passes(e: vec2<u32>, flags: i32, k: u32) -> bool {
+    let bias = ((flags >> (FLAG_BIAS_SHIFT + k)) & 1) == 1;
+    return !i64_is_negative(e) && (bias || !i64_is_zero(e));
+}
+
+@compute @workgroup_size(256)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let g = linear_workgroup_index(workgroup_id, num_workgroups);
+    if g >= frame.params.total_tiles {
+        return;
+    }
+    let view = view_of_tile(g);
+    let vw = frame.views[view];
+    let r = vw.raster;
+    let local_tile = g - vw.tile_offset;
+    let px = (local_tile % r.tiles_x) * GPU_TILE_SIZE + lid % GPU_TILE_SIZE;
+    let py = (local_tile / r.tiles_x) * GPU_TILE_SIZE + lid / GPU_TILE_SIZE;
+    let in_image = px < r.width && py < r.height;
+    let f = i32(r.supersample);
+    let h = i32(r.half_step);
+    // This pixel's sample columns and rows.
+    let pc0 = i32(px) * f;
+    let pr0 = i32(py) * f;
+    // The tile's sample columns and rows.
+    let tile_x = i32((local_tile % r.tiles_x) * GPU_TILE_SIZE);
+    let tile_y = i32((local_tile / r.tiles_x) * GPU_TILE_SIZE);
+    let tile_cols = vec2<i32>(tile_x * f, (tile_x + i32(GPU_TILE_SIZE)) * f - 1);
+    let tile_rows = vec2<i32>(tile_y * f, (tile_y + i32(GPU_TILE_SIZE)) * f - 1);
+
+    if lid == 0u {
+        let cap = frame.params.bin_capacity;
+        let start = min(bins[g], cap);
+        sh_range = vec3<u32>(start, min(bins[g + 1u], cap) - start, atomicLoad(&status[status_index(view, STATUS_LARGE)]));
+    }
+    let range = workgroupUniformLoad(&sh_range);
+    let total = range.y + range.z;
+    let large = frame.params.large_offset + view * frame.params.triangle_count;
+
+    var words = array<u32, 8>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    var iterations = 0u;
+    for (var chunk = 0u; chunk < total; chunk += 256u) {
+        let k = chunk + lid;
+        var s = Setup(vec4<i32>(0), vec4<i32>(0), vec4<i32>(0));
+        if k < range.y {
+            s = setup(view, bins[frame.params.bin_list_offset + range.x + k]);
+        } else if k < total {
+            s = setup(view, bins[large + k - range.y]);
+        }
+        sh_v01[lid] = s.v01;
+        sh_v2f[lid] = s.v2f;
+        sh_box[lid] = s.box;
+        workgroupBarrier();
+        let count = min(256u, total - chunk);
+        // Iterations of this chunk, counted the same in every invocation as if each pixel met
+        // every triangle that touches the tile: llvmpipe runs invocations in SIMD batches whose
+        // loops run as long as their longest lane's, so only a tile-wide bound is safe (see
+        // `stages::LLVMPIPE_LOOP_LIMIT`).
+        iterations += 4u + 2u * count;
+        for (var j = 0u; j < count; j++) {
+            let box = sh_box[j];
+            if (sh_v2f[j].z & FLAG_NONEMPTY) != 0 && box.x <= tile_cols.y && box.z >= tile_cols.x
+                && box.y <= tile_rows.y && box.w >= tile_rows.x {
+                // A pixel tests at most min(F, box width) × min(F, box height) samples.
+                let w = u32(min(f, box.z - box.x + 1));
+                let h = u32(min(f, box.w - box.y + 1));
+                iterations += 3u + h * (w + 2u);
+            }
+        }
+        // Past the budget (llvmpipe only, see `stages::LLVMPIPE_LOOP_LIMIT`) the tile stops and
+        // reports it, so that the host fails instead of returning a truncated image.
+        if lid == 0u {
+            sh_stop = select(0u, 1u, frame.params.loop_budget != 0u && iterations > frame.params.loop_budget);
+        }
+        if workgroupUniformLoad(&sh_stop) != 0u {
+            break;
+        }
+        for (var j = 0u; j < count && in_image; j++) {
+            let v2f = sh_v2f[j];
+            let flags = v2f.z;
+            if (flags & FLAG_NONEMPTY) == 0 {
+                continue;
+            }
+            let box = sh_box[j];
+            let c0 = max(pc0, box.x);
+            let c1 = min(pc0 + f - 1, box.z);
+            let r0 = max(pr0, box.y);
+            let r1 = min(pr0 + f - 1, box.w);
+            if c0 > c1 || r0 > r1 {
+                continue;
+            }
+            let v01 = sh_v01[j];
+            let v = array<vec2<i32>, 3>(v01.xy, v01.zw, v2f.xy);
+            let x0 = (2 * c0 + 1) * h;
+            let y0 = (2 * r0 + 1) * h;
+            if (flags & FLAG_SMALL) != 0 {
+                // 32-bit edge functions (exact, see the header).
+                var row_e = vec3<i32>(0);
+                var step_x = vec3<i32>(0);
+                var step_y = vec3<i32>(0);
+                for (var e = 0u; e < 3u; e++) {
+                    let a = v[e];
+                    let d = v[(e + 1u) % 3u] - a;
+                    let bias = (flags >> (FLAG_BIAS_SHIFT + e)) & 1;
+                    row_e[e] = d.x * (y0 - a.y) - d.y * (x0 - a.x) + bias;
+                    step_x[e] = -d.y * 2 * h;
+                    step_y[e] = d.x * 2 * h;
+                }
+                for (var sy = r0; sy <= r1; sy++) {
+                    var e = row_e;
+                    let bit_row = u32((sy - pr0) * f);
+                    for (var sx = c0; sx <= c1; sx++) {
+                        if all(e > vec3<i32>(0)) {
+                            let bit = bit_row + u32(sx - pc0);
+                            words[bit / 32u] |= 1u << (bit % 32u);
+                        }
+                        e += step_x;
+                    }
+                    row_e += step_y;
+                }
+            } else {
+                // 64-bit edge functions: E ≥ 0 (bias 1) or E > 0 (bias 0).
+                var row_e = array<vec2<u32>, 3>();
+                var step_x = array<vec2<u32>, 3>();
+                var step_y = array<vec2<u32>, 3>();
+                // E is linear: at the four corner samples of the pixel's box it takes its extremes,
+                // so most pixels of a large triangle are classified whole (inside all three
+                // edges, or outside one) without a per-sample loop.
+                var whole = true;
+                var outside = false;
+                for (var e = 0u; e < 3u; e++) {
+                    let a = v[e];
+                    let d = v[(e + 1u) % 3u] - a;
+                    row_e[e] = i64_sub(i64_mul_i32(d.x, y0 - a.y), i64_mul_i32(d.y, x0 - a.x));
+                    step_x[e] = i64_mul_i32(-d.y, 2 * h);
+                    step_y[e] = i64_mul_i32(d.x, 2 * h);
+                    let across = i64_mul_i32(-d.y, 2 * h * (c1 - c0));
+                    let down = i64_mul_i32(d.x, 2 * h * (r1 - r0));
+                    let p00 = edge_passes(row_e[e], flags, e);
+                    let p10 = edge_passes(i64_add(row_e[e], across), flags, e);
+                    let p01 = edge_passes(i64_add(row_e[e], down), flags, e);
+                    let p11 = edge_passes(i64_add(i64_add(row_e[e], across), down), flags, e);
+                    whole = whole && p00 && p10 && p01 && p11;
+                    outside = outside || !(p00 || p10 || p01 || p11);
+                }
+                if outside {
+                    continue;
+                }
+                if whole {
+                    for (var sy = r0; sy <= r1; sy++) {
+                        let lo = u32((sy - pr0) * f + c0 - pc0);
+                        set_bits(&words, lo, lo + u32(c1 - c0));
+                    }
+                    continue;
+                }
+                for (var sy = r0; sy <= r1; sy++) {
+                    var e = row_e;
+                    let bit_row = u32((sy - pr0) * f);
+                    for (var sx = c0; sx <= c1; sx++) {
+                        // The three edges, unrolled (loops count against llvmpipe's limit).
+                        let inside = edge_passes(e[0], flags, 0u) && edge_passes(e[1], flags, 1u)
+                            && edge_passes(e[2], flags, 2u);
+                        e[0] = i64_add(e[0], step_x[0]);
+                        e[1] = i64_add(e[1], step_x[1]);
+                        e[2] = i64_add(e[2], step_x[2]);
+                        if inside {
+                            let bit = bit_row + u32(sx - pc0);
+                            words[bit / 32u] |= 1u << (bit % 32u);
+                        }
+                    }
+                    row_e[0] = i64_add(row_e[0], step_y[0]);
+                    row_e[1] = i64_add(row_e[1], step_y[1]);
+                    row_e[2] = i64_add(row_e[2], step_y[2]);
+                }
+            }
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u && iterations > 4096u {
+        atomicMax(&status[STATUS_MAX_ITERATIONS], iterations);
+    }
+    if in_image {
+        let base = (vw.pixel_offset + py * r.width + px) * r.words_per_pixel;
+        for (var w = 0u; w < r.words_per_pixel; w++) {
+            masks[base + w] = words[w];
+        }
+    }
+}

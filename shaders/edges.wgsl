@@ -1,0 +1,111 @@
+// `edges` — twin of `cpu::edges` (src/cpu/edges.rs): `orient`, the orientation of every face
+// (`face_orientations`), then `main`, which mesh edges may lie on the silhouette of each view and
+// on which side their inside lies (`edges`).
+//
+// The orientation is the sign the CPU's f64 cross product of the unsnapped f32 screen positions
+// has, reproduced exactly in integer arithmetic (`orient_f64_sign`, shared/exact.wgsl), so GPU
+// and CPU pick the same candidate edges, bit for bit; `edge_grad` reuses the orientations.
+
+//!include shared/frame.wgsl
+//!include shared/exact.wgsl
+//!include shared/dispatch.wgsl
+
+@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(2) var<storage, read> triangles: array<u32>;
+@group(0) @binding(3) var<storage, read> edges: array<u32>;
+// Edge → faces CSR: offsets [0 ..= edge_count], then the face lists.
+@group(0) @binding(4) var<storage, read> edge_faces: array<u32>;
+// Per view: edge sides [view · edge_count + e], face orientations from `orient_offset`
+// [orient_offset + view · triangle_count + t], then the candidate positions and list (see
+// shared/frame.wgsl).
+@group(0) @binding(5) var<storage, read_write> classes: array<i32>;
+@group(0) @binding(6) var<storage, read_write> status: array<atomic<u32>>;
+
+fn bits(s: ScreenVertex) -> vec2<u32> {
+    return bitcast<vec2<u32>>(s.position);
+}
+
+// Reads:  `frame`, `triangles`, `edges` (2 vertex indices per edge), `edge_faces`, the face
+//         orientations in `classes`.
+// Writes: `classes[view · edge_count + e]` = +1 when the faces of edge e = [a, b] all lie left of
+//         a → b, −1 when all lie right, 0 otherwise (no face with a non-zero orientation, or
+//         faces on both sides); a face running a → b lies on the side of its orientation, one
+//         running b → a on the other. Each candidate (side ≠ 0) is appended to the candidate
+//         list (`classes` from `candidate_list_offset()`, position k from
+//         `status[STATUS_CANDIDATE_TOTAL]`, atomic) and k is stored at
+//         `classes[candidate_index_offset() + view · edge_count + e]`;
+//         `status[status_index(view, STATUS_CANDIDATES)]` (+1 per candidate).
+// Dispatch: 1D over view_count · edge_count invocations (64 per workgroup), after `orient`.
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.edge_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let view = i / n;
+    let e = i % n;
+    let a = edges[2u * e];
+    let b = edges[2u * e + 1u];
+    let orientations = frame.params.orient_offset + view * frame.params.triangle_count;
+    var left = false;
+    var right = false;
+    for (var k = edge_faces[e]; k < edge_faces[e + 1u]; k++) {
+        let face = edge_faces[n + 1u + k];
+        let o = classes[orientations + face];
+        if o == 0 {
+            continue; // culled or degenerate: covers nothing on either side
+        }
+        let t = vec3<u32>(triangles[3u * face], triangles[3u * face + 1u], triangles[3u * face + 2u]);
+        let forward = (t.x == a && t.y == b) || (t.y == a && t.z == b) || (t.z == a && t.x == b);
+        let face_side = select(-o, o, forward);
+        left = left || face_side > 0;
+        right = right || face_side < 0;
+    }
+    var side = 0;
+    if left && !right {
+        side = 1;
+    } else if right && !left {
+        side = -1;
+    }
+    classes[i] = side;
+    if side != 0 {
+        atomicAdd(&status[status_index(view, STATUS_CANDIDATES)], 1u);
+        let k = atomicAdd(&status[STATUS_CANDIDATE_TOTAL], 1u);
+        classes[candidate_list_offset() + k] = i32(i);
+        classes[candidate_index_offset() + i] = i32(k);
+    }
+}
+
+// Reads:  `frame`, `screen`, `triangles`.
+// Writes: `classes[orient_offset + view · triangle_count + t]` = sign of the CPU's f64
+//         `cross(q1 − q0, q2 − q0)` of face t in view `view` (0 when a vertex is culled or the
+//         face has zero area).
+// Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
+@compute @workgroup_size(64)
+fn orient(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.triangle_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let view = i / n;
+    let t = i % n;
+    let base = view * frame.params.vertex_count;
+    let s0 = screen[base + triangles[3u * t]];
+    let s1 = screen[base + triangles[3u * t + 1u]];
+    let s2 = screen[base + triangles[3u * t + 2u]];
+    var o = 0;
+    if s0.valid != 0u && s1.valid != 0u && s2.valid != 0u {
+        o = orient_f64_sign(bits(s0), bits(s1), bits(s2));
+    }
+    classes[frame.params.orient_offset + i] = o;
+}

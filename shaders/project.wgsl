@@ -1,0 +1,61 @@
+// `project` — twin of `cpu::project::project` (src/cpu/project.rs): 3D vertices → screen vertices,
+// every view at once.
+//
+// Reads:  `frame` (uniform: sizes, views), `cameras[view]` (one ViewParams per view),
+//         `positions` (x, y, z per vertex, f32).
+// Writes: `screen[view · vertex_count + v]` for every view and vertex.
+// Dispatch: 1D over view_count · vertex_count invocations (`dispatch_1d`, 64 per workgroup).
+//
+// The arithmetic repeats `ViewParams::project` operation by operation, including glam's
+// (x + z) + (y + w) grouping of the 4D dot product (x86-64 SSE2), with every product kept out of
+// FMA fusion (`no_fuse`) and the divisions correctly rounded in software (`div_rn`): Vulkan
+// rounds f32 additions and multiplications correctly, so the screen vertices — and hence the
+// images — are the CPU's to the bit. (Only a subnormal intermediate, which a device may flush,
+// could differ; pixel coordinates never are.)
+
+//!include shared/frame.wgsl
+//!include shared/exact.wgsl
+//!include shared/dispatch.wgsl
+
+const COORD_LIMIT: f32 = 1048576.0;
+
+@group(0) @binding(1) var<storage, read> cameras: array<ViewParams>;
+@group(0) @binding(2) var<storage, read> positions: array<f32>;
+@group(0) @binding(3) var<storage, read_write> screen: array<ScreenVertex>;
+
+fn dot_glam(r: vec4<f32>, p: vec3<f32>) -> f32 {
+    let x = no_fuse(r.x * p.x);
+    let y = no_fuse(r.y * p.y);
+    let z = no_fuse(r.z * p.z);
+    return no_fuse(x + z) + no_fuse(y + r.w);
+}
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.vertex_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let view = cameras[i / n];
+    let v = i % n;
+    let p = vec3<f32>(positions[3u * v], positions[3u * v + 1u], positions[3u * v + 2u]);
+    let c = vec3<f32>(dot_glam(view.row0, p), dot_glam(view.row1, p), dot_glam(view.row2, p));
+    let depth = -c.z;
+    let in_range = depth > view.near && depth < view.far;
+    var xy = c.xy;
+    if view.perspective == 1u {
+        if !in_range {
+            screen[i] = ScreenVertex(vec2<f32>(0.0, 0.0), 0u, 0u);
+            return;
+        }
+        xy = vec2<f32>(div_rn(c.x, depth), div_rn(c.y, depth));
+    }
+    let s = vec2<f32>(view.centre.x + no_fuse(view.scale * xy.x), view.centre.y - no_fuse(view.scale * xy.y));
+    let valid = in_range && abs(s.x) < COORD_LIMIT && abs(s.y) < COORD_LIMIT;
+    screen[i] = ScreenVertex(select(vec2<f32>(0.0, 0.0), s, valid), select(0u, 1u, valid), 0u);
+}

@@ -1,0 +1,144 @@
+// Buffer structs shared by the WGSL stages. Each is the twin of a `#[repr(C)]` Rust struct:
+// keep them in sync (`tests/gpu_layout.rs` round-trips every field through the GPU).
+//
+//   ScreenVertex  <->  diffsil::layout::ScreenVertex   (16 bytes)
+//   RasterParams  <->  diffsil::layout::RasterParams   (48 bytes)
+//   EdgeGrad      <->  diffsil::layout::EdgeGrad       (16 bytes)
+//   ViewParams    <->  diffsil::camera::ViewParams     (80 bytes)
+//   GpuView       <->  diffsil::gpu::stages::GpuView   (64 bytes)
+//   FrameParams   <->  diffsil::gpu::stages::FrameParams (64 bytes)
+//   Frame         <->  diffsil::gpu::stages::FrameUniform (64 + 256·64 bytes, uniform)
+
+// A projected vertex: pixel coordinates (x right, y down) and whether it may be used.
+struct ScreenVertex {
+    position: vec2<f32>,
+    valid: u32,
+    pad: u32,
+}
+
+// Per-view raster constants (see `RasterParams` in src/layout.rs). On the GPU `tile_size` is always
+// `GPU_TILE_SIZE`.
+struct RasterParams {
+    width: u32,
+    height: u32,
+    supersample: u32,
+    units: u32,
+    half_step: u32,
+    words_per_pixel: u32,
+    tile_size: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    inside: f32,
+    outside: f32,
+    inv_samples: f32,
+}
+
+// The gradient slot of one edge [a, b]: dL/da and dL/db in pixel coordinates.
+struct EdgeGrad {
+    a: vec2<f32>,
+    b: vec2<f32>,
+}
+
+// Per-view camera constants (see `ViewParams` in src/camera.rs).
+struct ViewParams {
+    row0: vec4<f32>,
+    row1: vec4<f32>,
+    row2: vec4<f32>,
+    centre: vec2<f32>,
+    scale: f32,
+    perspective: u32,
+    near: f32,
+    far: f32,
+    width: u32,
+    height: u32,
+}
+
+// One view of a multi-view frame: its raster constants and where its data starts in the
+// concatenated per-view buffers (pixels of all views back to back, tiles likewise).
+struct GpuView {
+    raster: RasterParams,
+    // First pixel of this view in the concatenated images (and, times words_per_pixel, masks).
+    pixel_offset: u32,
+    // First tile of this view in the concatenated tile arrays.
+    tile_offset: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+// Sizes of the whole frame.
+struct FrameParams {
+    view_count: u32,
+    vertex_count: u32,
+    triangle_count: u32,
+    edge_count: u32,
+    // Tiles of all views together.
+    total_tiles: u32,
+    // Pixels of all views together.
+    total_pixels: u32,
+    // Capacity of the bin list (entries).
+    bin_capacity: u32,
+    // Index of the first list entry in the `bins` buffer (= total_tiles + 1: the CSR offsets come
+    // first).
+    bin_list_offset: u32,
+    // Index of the first face orientation in the `classes` buffer (= view_count · edge_count: the
+    // edge sides come first).
+    orient_offset: u32,
+    // Always 0; the shaders cannot know it, which keeps compilers from fusing a product into a
+    // following addition (see `no_fuse` in shared/frame.wgsl).
+    zero: u32,
+    // Index of the first large-triangle list in the `bins` buffer (view v's list starts at
+    // large_offset + v · triangle_count; see shared/tiles.wgsl).
+    large_offset: u32,
+    // Parts per candidate edge in `edge_grad` (ceil(largest image side / GPU_TILE_SIZE)).
+    parts: u32,
+    // Loop iterations one SIMD batch of invocations may run before the stage stops and reports
+    // it: 60,000 on llvmpipe (which silently ends loops after 65,535), 0 (no limit) elsewhere.
+    loop_budget: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+// Views per GPU frame (the size of the uniform array of views).
+const MAX_VIEWS: u32 = 256u;
+
+// The frame uniform (binding 0 of every stage): sizes and all views.
+struct Frame {
+    params: FrameParams,
+    views: array<GpuView, MAX_VIEWS>,
+}
+
+// Tile side in pixels on the GPU (one workgroup of GPU_TILE_SIZE² invocations per tile in
+// `coverage`). Coverage and visibility do not depend on the tile size (see src/gpu/stages.rs).
+const GPU_TILE_SIZE: u32 = 16u;
+
+// Layout of the `status` buffer (u32 counters, atomic where several invocations write; read back
+// with the image or the gradients; see `diffsil::gpu::stages::status`):
+//   [0]                 bin entries needed (written by `scan`)
+//   [1]                 1 when the bin count overflowed u32 (written by `scan`)
+//   [2]                 candidate edges of all views (`edges`: the length of the candidate list)
+//   [3]                 most loop iterations one invocation of `coverage` or `edge_grad` ran
+//   [4 + 5·v + 0]       culled triangles of view v (`bin_count`)
+//   [4 + 5·v + 1]       candidate edges of view v (`edges`)
+//   [4 + 5·v + 2]       segments of view v (`edge_grad`)
+//   [4 + 5·v + 3]       visible segments of view v (`edge_grad`)
+//   [4 + 5·v + 4]       large triangles of view v (`bin_count`: the length of its large list)
+const STATUS_NEEDED: u32 = 0u;
+const STATUS_OVERFLOW: u32 = 1u;
+const STATUS_CANDIDATE_TOTAL: u32 = 2u;
+const STATUS_MAX_ITERATIONS: u32 = 3u;
+const STATUS_VIEW_BASE: u32 = 4u;
+const STATUS_VIEW_STRIDE: u32 = 5u;
+const STATUS_CULLED: u32 = 0u;
+const STATUS_CANDIDATES: u32 = 1u;
+const STATUS_SEGMENTS: u32 = 2u;
+const STATUS_VISIBLE: u32 = 3u;
+const STATUS_LARGE: u32 = 4u;
+
+fn status_index(view: u32, counter: u32) -> u32 {
+    return STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * view + counter;
+}
+
+// A triangle listed in more tiles than this goes to its view's large-triangle list instead of the
+// tile lists (so no invocation loops over more than this many tiles).
+const LARGE_TILES: i32 = 64;

@@ -1,0 +1,49 @@
+// The tile range of a triangle, shared by `bin_count` and `bin_fill`: the GPU twin of
+// `cpu::bin::triangle_tiles` (src/cpu/bin.rs) with the GPU's tile size.
+//
+// A triangle is listed in every tile its snapped bounding box, grown by one fixed-point unit on
+// each side, overlaps (conservative for the float geometry too, which `edge_grad` relies on).
+// Triangles with a clipped vertex, and those entirely off-screen, are listed nowhere. A triangle
+// spanning more than LARGE_TILES tiles is listed once, in its view's large-triangle list, which
+// `coverage` and `edge_grad` consult in every tile besides the tile's own list.
+//!include shared/frame.wgsl
+//!include shared/exact.wgsl
+
+// Inclusive tile range (tx0, ty0, tx1, ty1) of triangle `tri` (vertex indices) in view `view`, or
+// tx0 = -1 when it is listed nowhere; `culled` is set when a vertex is clipped.
+struct TileRange {
+    range: vec4<i32>,
+    culled: bool,
+}
+
+fn is_large(r: vec4<i32>) -> bool {
+    return (r.z - r.x + 1) * (r.w - r.y + 1) > LARGE_TILES;
+}
+
+fn triangle_tiles(view: u32, tri: vec3<u32>, s0: ScreenVertex, s1: ScreenVertex, s2: ScreenVertex) -> TileRange {
+    let none = vec4<i32>(-1, -1, -1, -1);
+    if s0.valid == 0u || s1.valid == 0u || s2.valid == 0u {
+        return TileRange(none, true);
+    }
+    let r = frame.views[view].raster;
+    let units = i32(r.units);
+    let x = vec3<i32>(snap(s0.position.x, r.units), snap(s1.position.x, r.units), snap(s2.position.x, r.units));
+    let y = vec3<i32>(snap(s0.position.y, r.units), snap(s1.position.y, r.units), snap(s2.position.y, r.units));
+    let x_lo = floor_div(min(min(x.x, x.y), x.z) - 1, units);
+    let x_hi = floor_div(max(max(x.x, x.y), x.z) + 1, units);
+    let y_lo = floor_div(min(min(y.x, y.y), y.z) - 1, units);
+    let y_hi = floor_div(max(max(y.x, y.y), y.z) + 1, units);
+    if x_hi < 0 || x_lo >= i32(r.width) || y_hi < 0 || y_lo >= i32(r.height) {
+        return TileRange(none, false);
+    }
+    let t = i32(GPU_TILE_SIZE);
+    return TileRange(
+        vec4<i32>(
+            max(x_lo, 0) / t,
+            max(y_lo, 0) / t,
+            min(x_hi, i32(r.width) - 1) / t,
+            min(y_hi, i32(r.height) - 1) / t,
+        ),
+        false,
+    );
+}

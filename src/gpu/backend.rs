@@ -1,0 +1,712 @@
+//! The GPU backend behind [`crate::Renderer`]: runs the WGSL stages of [`super::stages`] on a
+//! [`GpuContext`].
+//!
+//! - **Created once, reused.** The pipelines are compiled when the backend is created. Buffers
+//!   and bind groups are created for a frame *shape* (topology, number of views, image sizes,
+//!   supersampling, 2D or 3D input) and reused for every frame of that shape: per frame only the
+//!   frame uniform, the inputs (positions and cameras, or screen vertices) and `∂L/∂I` are
+//!   written.
+//! - **One submission each.** A forward is one command buffer (all stages, all views, and the
+//!   copy of the images and counters to a staging buffer), a backward is another (`edge_grad`,
+//!   `edge_sum`, `gather`, and the copy of the per-view vertex gradients). Only the images, the
+//!   vertex gradients and a few counters are read back.
+//! - **Backward work items.** The forward reads back how many candidate edges there are; the
+//!   backward runs `edge_grad` on candidates × parts (each part one 16-pixel slab of the edge's
+//!   major axis) and `edge_sum` adds the parts of each edge in order.
+//! - **Bin capacity.** The number of (triangle, tile) entries is only known on the GPU. The
+//!   forward writes at most the current capacity and reports the number needed with the image;
+//!   when it did not fit, the buffer grows and the forward runs again (rarely: the capacity is
+//!   kept for later frames). Nothing is ever written out of bounds.
+//! - **The frame's state stays on the GPU.** The backward needs the forward's screen vertices,
+//!   bins and edge sides; they stay in the buffers. A frame remembers the generation of its
+//!   forward; if the buffers have since been used by another forward (or by another renderer),
+//!   the backward first runs that forward again from the inputs the frame keeps.
+//! - **3D backward.** The camera Jacobian is applied on the CPU to the per-view 2D gradients read
+//!   back (`Renderer::backward`), the same code as the CPU backend: it is O(V) per view and keeps
+//!   the 3D gradient bit-identical between the backends given the same 2D gradients.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3};
+
+use super::stages::{
+    status, FrameLayout, FrameParams, FrameUniform, GpuView, GPU_TILE_SIZE, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
+    MAX_VIEWS,
+};
+use super::{AdapterReport, GpuContext};
+use crate::camera::ViewParams;
+use crate::cpu::edge_grad::SegmentStats;
+use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
+use crate::mesh::Topology;
+use crate::{Error, Result};
+
+static NEXT_BACKEND_ID: AtomicU64 = AtomicU64::new(1);
+
+/// The input of a forward.
+#[derive(Clone, Copy)]
+pub(crate) enum Input<'a> {
+    /// Screen vertices per view (already validated).
+    Screen(&'a [Vec<ScreenVertex>]),
+    /// 3D positions and one camera per view.
+    World { positions: &'a [Vec3], cameras: &'a [ViewParams] },
+}
+
+impl Input<'_> {
+    fn is_world(&self) -> bool {
+        matches!(self, Input::World { .. })
+    }
+}
+
+/// What a forward returns.
+pub(crate) struct ForwardOutput {
+    /// One image per view, row-major.
+    pub images: Vec<Vec<f32>>,
+    /// Culled triangles per view.
+    pub culled: Vec<u32>,
+    /// Candidate edges per view.
+    pub candidates: Vec<u32>,
+    /// Identifies the GPU state this forward left behind (see [`GpuFrame`]).
+    pub frame: GpuFrame,
+}
+
+/// Which forward a frame came from: the backend instance and the generation of its forward.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct GpuFrame {
+    backend: u64,
+    generation: u64,
+}
+
+struct Pipelines {
+    project: wgpu::ComputePipeline,
+    bin_count: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    bin_fill: wgpu::ComputePipeline,
+    coverage: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
+    edges: wgpu::ComputePipeline,
+    orient: wgpu::ComputePipeline,
+    edge_grad: wgpu::ComputePipeline,
+    edge_sum: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
+}
+
+impl Pipelines {
+    fn new(ctx: &GpuContext) -> Result<Pipelines> {
+        Ok(Pipelines {
+            project: ctx.compute_pipeline("project.wgsl", "main")?,
+            bin_count: ctx.compute_pipeline("bin_count.wgsl", "main")?,
+            scan: ctx.compute_pipeline("scan.wgsl", "main")?,
+            bin_fill: ctx.compute_pipeline("bin_fill.wgsl", "main")?,
+            coverage: ctx.compute_pipeline("coverage.wgsl", "main")?,
+            resolve: ctx.compute_pipeline("resolve.wgsl", "main")?,
+            edges: ctx.compute_pipeline("edges.wgsl", "main")?,
+            orient: ctx.compute_pipeline("edges.wgsl", "orient")?,
+            edge_grad: ctx.compute_pipeline("edge_grad.wgsl", "main")?,
+            edge_sum: ctx.compute_pipeline("edge_sum.wgsl", "main")?,
+            gather: ctx.compute_pipeline("gather.wgsl", "main")?,
+        })
+    }
+}
+
+/// Static per-topology buffers.
+struct TopologyBuffers {
+    topology: Arc<Topology>,
+    triangles: wgpu::Buffer,
+    edges: wgpu::Buffer,
+    /// Edge → faces CSR: offsets, then lists.
+    edge_faces: wgpu::Buffer,
+    /// Vertex → edges CSR: offsets, then lists.
+    vertex_edges: wgpu::Buffer,
+}
+
+impl TopologyBuffers {
+    fn new(ctx: &GpuContext, topology: &Arc<Topology>) -> Result<TopologyBuffers> {
+        let flat = |rows: &[[u32; 3]]| -> Vec<u32> { rows.iter().flatten().copied().collect() };
+        let triangles = ctx.storage_buffer_init("diffsil triangles", &flat(topology.triangles()))?;
+        let edges_flat: Vec<u32> = topology.edges().iter().flatten().copied().collect();
+        let edges = ctx.storage_buffer_init("diffsil edges", &edges_flat)?;
+        let edge_faces = ctx.storage_buffer_init(
+            "diffsil edge faces",
+            &[topology.edge_face_offsets(), topology.edge_face_list()].concat(),
+        )?;
+        let vertex_edges = ctx.storage_buffer_init(
+            "diffsil vertex edges",
+            &[topology.vertex_edge_offsets(), topology.vertex_edge_list()].concat(),
+        )?;
+        Ok(TopologyBuffers { topology: topology.clone(), triangles, edges, edge_faces, vertex_edges })
+    }
+}
+
+/// What the frame buffers are sized for.
+#[derive(Clone, Debug, PartialEq)]
+struct Shape {
+    topology: usize,
+    sizes: Vec<(u32, u32)>,
+    supersample: u32,
+    world: bool,
+}
+
+struct BindGroups {
+    project: Option<wgpu::BindGroup>,
+    bin_count: wgpu::BindGroup,
+    scan: wgpu::BindGroup,
+    bin_fill: wgpu::BindGroup,
+    coverage: wgpu::BindGroup,
+    resolve: wgpu::BindGroup,
+    edges: wgpu::BindGroup,
+    orient: wgpu::BindGroup,
+    gather: wgpu::BindGroup,
+}
+
+/// The per-part results of `edge_grad` (grown to the candidates × parts of the frame) and the bind
+/// groups that use them.
+struct Partials {
+    _buffer: wgpu::Buffer,
+    capacity: u64,
+    edge_grad: wgpu::BindGroup,
+    edge_sum: wgpu::BindGroup,
+}
+
+/// Per-shape buffers and bind groups.
+struct FrameBuffers {
+    shape: Shape,
+    uniform: Box<FrameUniform>,
+    uniform_buffer: wgpu::Buffer,
+    cameras: wgpu::Buffer,
+    positions: wgpu::Buffer,
+    screen: wgpu::Buffer,
+    counts: wgpu::Buffer,
+    status: wgpu::Buffer,
+    image: wgpu::Buffer,
+    d_image: wgpu::Buffer,
+    grads: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    groups: BindGroups,
+    bins: wgpu::Buffer,
+    classes: wgpu::Buffer,
+    slots: wgpu::Buffer,
+    partials: Option<Partials>,
+    /// Candidate edges of all views in the last forward (the backward's work items are
+    /// candidates × parts).
+    candidates: u32,
+    /// Buffers only the bind groups use (masks), kept with the frame.
+    _internal: Vec<wgpu::Buffer>,
+}
+
+impl FrameBuffers {
+    fn params(&self) -> &FrameParams {
+        &self.uniform.params
+    }
+
+    fn views(&self) -> &[GpuView] {
+        &self.uniform.views[..self.params().view_count as usize]
+    }
+}
+
+/// Bytes of `count` elements of `size` bytes, at least one element (a binding must hold one).
+fn at_least_one(count: u64, size: usize) -> u64 {
+    count.max(1) * size as u64
+}
+
+/// Fails with [`Error::GpuLimit`] when `n` does not fit the shaders' u32 indices.
+fn check_index(n: u64) -> Result<u32> {
+    u32::try_from(n).map_err(|_| Error::GpuLimit { limit: "u32 buffer index", needed: n, max: u32::MAX as u64 })
+}
+
+/// The GPU backend of a renderer.
+pub(crate) struct GpuBackend {
+    ctx: GpuContext,
+    id: u64,
+    pipelines: Pipelines,
+    topology: Option<TopologyBuffers>,
+    frame: Option<FrameBuffers>,
+    /// Generation of the forward whose state the frame buffers hold (0: none).
+    generation: u64,
+    last_generation: u64,
+}
+
+impl GpuBackend {
+    /// Compiles the pipelines on `ctx`.
+    pub fn new(ctx: GpuContext) -> Result<GpuBackend> {
+        let pipelines = Pipelines::new(&ctx)?;
+        Ok(GpuBackend {
+            ctx,
+            id: NEXT_BACKEND_ID.fetch_add(1, Ordering::Relaxed),
+            pipelines,
+            topology: None,
+            frame: None,
+            generation: 0,
+            last_generation: 0,
+        })
+    }
+
+    /// The adapter.
+    pub fn adapter(&self) -> &AdapterReport {
+        self.ctx.adapter()
+    }
+
+    /// Whether the adapter is Mesa's llvmpipe (lavapipe), whose shaders end every loop of an
+    /// invocation after [`LLVMPIPE_LOOP_LIMIT`] iterations in total.
+    fn loop_limited(&self) -> bool {
+        let adapter = self.ctx.adapter();
+        adapter.device_type == wgpu::DeviceType::Cpu && adapter.name.to_lowercase().contains("llvmpipe")
+    }
+
+    /// [`Error::GpuLimit`] when an invocation may have hit llvmpipe's loop limit (its results
+    /// would be cut short).
+    fn check_iterations(&self, most: u32) -> Result<()> {
+        let max = LLVMPIPE_LOOP_BUDGET;
+        if self.loop_limited() && most > max {
+            return Err(Error::GpuLimit {
+                limit: "loop iterations per shader invocation on llvmpipe (too many triangles in one 16x16-pixel tile)",
+                needed: most as u64,
+                max: max as u64,
+            });
+        }
+        Ok(())
+    }
+
+    /// Makes the partials buffer hold candidates × parts entries (growing it and its bind groups).
+    fn ensure_partials(&mut self) -> Result<()> {
+        let ctx = &self.ctx;
+        let topo = self.topology.as_ref().expect("topology uploaded");
+        let f = self.frame.as_mut().expect("a forward ran");
+        let needed = (f.candidates as u64 * f.uniform.params.parts as u64).max(1);
+        check_index(needed)?;
+        if f.partials.as_ref().is_some_and(|p| p.capacity >= needed) {
+            return Ok(());
+        }
+        f.partials = None;
+        let capacity = needed + needed / 4;
+        let buffer = ctx.storage_buffer("diffsil edge parts", capacity * 16)?;
+        let p = &self.pipelines;
+        let u = &f.uniform_buffer;
+        let edge_grad = ctx.bind_entries(
+            "edge_grad",
+            &p.edge_grad,
+            0,
+            &[
+                (0, u),
+                (1, &f.screen),
+                (2, &topo.triangles),
+                (3, &topo.edges),
+                (4, &f.bins),
+                (5, &f.classes),
+                (6, &f.d_image),
+                (7, &buffer),
+                (8, &f.status),
+            ],
+        )?;
+        let edge_sum = ctx.bind_entries(
+            "edge_sum",
+            &p.edge_sum,
+            0,
+            &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots)],
+        )?;
+        f.partials = Some(Partials { _buffer: buffer, capacity, edge_grad, edge_sum });
+        Ok(())
+    }
+
+    fn ensure_topology(&mut self, topology: &Arc<Topology>) -> Result<()> {
+        if self.topology.as_ref().is_some_and(|t| Arc::ptr_eq(&t.topology, topology)) {
+            return Ok(());
+        }
+        self.topology = None;
+        self.frame = None;
+        self.generation = 0;
+        self.topology = Some(TopologyBuffers::new(&self.ctx, topology)?);
+        Ok(())
+    }
+
+    /// Runs the forward of all views in one submission; returns the images and counters.
+    pub fn forward(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: Input<'_>,
+    ) -> Result<ForwardOutput> {
+        let n = params.len();
+        if n == 0 {
+            return Ok(ForwardOutput {
+                images: Vec::new(),
+                culled: Vec::new(),
+                candidates: Vec::new(),
+                frame: GpuFrame { backend: self.id, generation: 0 },
+            });
+        }
+        if n > MAX_VIEWS {
+            return Err(Error::GpuLimit { limit: "views per GPU frame", needed: n as u64, max: MAX_VIEWS as u64 });
+        }
+        self.ensure_topology(topology)?;
+        let shape = Shape {
+            topology: Arc::as_ptr(topology) as usize,
+            sizes: params.iter().map(|p| (p.width, p.height)).collect(),
+            supersample: params[0].supersample,
+            world: input.is_world(),
+        };
+        let layout = FrameLayout::new(params);
+        if self.frame.as_ref().is_none_or(|f| f.shape != shape) {
+            self.frame = None;
+            self.generation = 0;
+            let triangles = topology.triangles().len() as u64;
+            let capacity = (4 * n as u64 * triangles + layout.total_tiles).max(1024);
+            self.frame = Some(self.build_frame(shape, &layout, capacity)?);
+        }
+        loop {
+            let frame = self.frame.as_mut().expect("built above");
+            // Settings (inside/outside) may change between frames of one shape.
+            frame.uniform.views[..n].copy_from_slice(&layout.views);
+            let (images, counters) = self.run_forward(input)?;
+            let frame = self.frame.as_ref().expect("built above");
+            if counters[status::OVERFLOW] != 0 {
+                return Err(Error::GpuLimit { limit: "bin entries (u32)", needed: u64::MAX, max: u32::MAX as u64 });
+            }
+            let needed = counters[status::NEEDED];
+            if needed > frame.params().bin_capacity {
+                let capacity = needed as u64 + needed as u64 / 4;
+                let shape = frame.shape.clone();
+                self.frame = None;
+                self.generation = 0;
+                self.frame = Some(self.build_frame(shape, &layout, capacity)?);
+                continue;
+            }
+            self.check_iterations(counters[status::MAX_ITERATIONS])?;
+            self.frame.as_mut().expect("built above").candidates = counters[status::CANDIDATE_TOTAL];
+            self.last_generation += 1;
+            self.generation = self.last_generation;
+            let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
+            return Ok(ForwardOutput {
+                images,
+                culled: per_view(status::CULLED),
+                candidates: per_view(status::CANDIDATES),
+                frame: GpuFrame { backend: self.id, generation: self.generation },
+            });
+        }
+    }
+
+    fn build_frame(&self, shape: Shape, layout: &FrameLayout, capacity: u64) -> Result<FrameBuffers> {
+        let ctx = &self.ctx;
+        let topo = self.topology.as_ref().expect("topology uploaded before the frame");
+        let t = &topo.topology;
+        let n = layout.views.len() as u64;
+        let (vertices, triangles, edges) =
+            (t.vertex_count() as u64, t.triangles().len() as u64, t.edges().len() as u64);
+        let wpp = layout.views[0].raster.words_per_pixel as u64;
+        for count in [n * vertices, n * triangles, n * edges, 3 * triangles, n * (edges + triangles)] {
+            check_index(count)?;
+        }
+        let total_pixels = check_index(layout.total_pixels)?;
+        check_index(layout.total_pixels * wpp)?;
+        let total_tiles = check_index(layout.total_tiles)?;
+        let max_binding = ctx.limits().max_storage_buffer_binding_size / 4;
+        let large_lists = n * triangles;
+        let capacity = capacity.min(max_binding.saturating_sub(layout.total_tiles + 1 + large_lists)).max(1);
+        let bin_capacity = check_index(capacity)?;
+        check_index(layout.total_tiles + 1 + capacity + large_lists)?;
+        check_index(n * (3 * edges + triangles))?;
+        let max_side = layout.views.iter().map(|v| v.raster.width.max(v.raster.height)).max().unwrap_or(1);
+        let parts = max_side.div_ceil(GPU_TILE_SIZE);
+        if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
+            return Err(Error::GpuLimit {
+                limit: "tiles per frame on llvmpipe (65,535 loop iterations per invocation)",
+                needed: layout.total_tiles,
+                max: (LLVMPIPE_LOOP_LIMIT as u64 - 64) / 2 * 256,
+            });
+        }
+
+        let mut uniform: Box<FrameUniform> = bytemuck::zeroed_box();
+        uniform.params = FrameParams {
+            view_count: n as u32,
+            vertex_count: vertices as u32,
+            triangle_count: triangles as u32,
+            edge_count: edges as u32,
+            total_tiles,
+            total_pixels,
+            bin_capacity,
+            bin_list_offset: total_tiles + 1,
+            orient_offset: (n * edges) as u32,
+            zero: 0,
+            large_offset: total_tiles + 1 + bin_capacity,
+            parts,
+            loop_budget: if self.loop_limited() { LLVMPIPE_LOOP_BUDGET } else { 0 },
+            pad: [0; 3],
+        };
+        uniform.views[..layout.views.len()].copy_from_slice(&layout.views);
+
+        let uniform_buffer = ctx.uniform_buffer_init("diffsil frame", &*uniform)?;
+        let (cameras, positions) = if shape.world {
+            (
+                ctx.storage_buffer("diffsil cameras", at_least_one(n, std::mem::size_of::<ViewParams>()))?,
+                ctx.storage_buffer("diffsil positions", at_least_one(vertices, 12))?,
+            )
+        } else {
+            (ctx.storage_buffer("diffsil cameras (unused)", 80)?, ctx.storage_buffer("diffsil positions (unused)", 4)?)
+        };
+        let screen = ctx.storage_buffer("diffsil screen", at_least_one(n * vertices, 16))?;
+        let counts = ctx.storage_buffer("diffsil tile counts", layout.total_tiles * 4)?;
+        let bins = ctx.storage_buffer("diffsil bins", (layout.total_tiles + 1 + capacity + large_lists) * 4)?;
+        let status_buffer = ctx.storage_buffer("diffsil status", status::len(n as usize) as u64 * 4)?;
+        let masks = ctx.storage_buffer("diffsil masks", layout.total_pixels * wpp * 4)?;
+        let image = ctx.storage_buffer("diffsil image", layout.total_pixels * 4)?;
+        let classes = ctx.storage_buffer("diffsil classes", n * (3 * edges + triangles) * 4)?;
+        let d_image = ctx.storage_buffer("diffsil image gradient", layout.total_pixels * 4)?;
+        let slots =
+            ctx.storage_buffer("diffsil edge slots", at_least_one(n * edges, std::mem::size_of::<EdgeGrad>()))?;
+        let grads = ctx.storage_buffer("diffsil vertex gradients", at_least_one(n * vertices, 8))?;
+        let status_bytes = status::len(n as usize) as u64 * 4;
+        let staging =
+            ctx.staging_buffer("diffsil readback", (layout.total_pixels * 4).max(n * vertices * 8) + status_bytes)?;
+
+        let p = &self.pipelines;
+        let u = &uniform_buffer;
+        let groups = BindGroups {
+            project: if shape.world {
+                Some(ctx.bind_entries(
+                    "project",
+                    &p.project,
+                    0,
+                    &[(0, u), (1, &cameras), (2, &positions), (3, &screen)],
+                )?)
+            } else {
+                None
+            },
+            bin_count: ctx.bind_entries(
+                "bin_count",
+                &p.bin_count,
+                0,
+                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &status_buffer), (5, &bins)],
+            )?,
+            scan: ctx.bind_entries("scan", &p.scan, 0, &[(0, u), (1, &counts), (2, &bins), (3, &status_buffer)])?,
+            bin_fill: ctx.bind_entries(
+                "bin_fill",
+                &p.bin_fill,
+                0,
+                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &bins)],
+            )?,
+            coverage: ctx.bind_entries(
+                "coverage",
+                &p.coverage,
+                0,
+                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &bins), (4, &masks), (5, &status_buffer)],
+            )?,
+            resolve: ctx.bind_entries("resolve", &p.resolve, 0, &[(0, u), (1, &masks), (2, &image)])?,
+            edges: ctx.bind_entries(
+                "edges",
+                &p.edges,
+                0,
+                &[
+                    (0, u),
+                    (2, &topo.triangles),
+                    (3, &topo.edges),
+                    (4, &topo.edge_faces),
+                    (5, &classes),
+                    (6, &status_buffer),
+                ],
+            )?,
+            orient: ctx.bind_entries(
+                "orient",
+                &p.orient,
+                0,
+                &[(0, u), (1, &screen), (2, &topo.triangles), (5, &classes)],
+            )?,
+            gather: ctx.bind_entries(
+                "gather",
+                &p.gather,
+                0,
+                &[(0, u), (1, &topo.edges), (2, &topo.vertex_edges), (3, &slots), (4, &grads)],
+            )?,
+        };
+        Ok(FrameBuffers {
+            shape,
+            uniform,
+            uniform_buffer,
+            cameras,
+            positions,
+            screen,
+            counts,
+            status: status_buffer,
+            image,
+            d_image,
+            grads,
+            staging,
+            groups,
+            bins,
+            classes,
+            slots,
+            partials: None,
+            candidates: 0,
+            _internal: vec![masks],
+        })
+    }
+
+    /// Uploads the inputs, records and submits the forward, and reads back the images and the
+    /// status counters.
+    fn run_forward(&self, input: Input<'_>) -> Result<(Vec<Vec<f32>>, Vec<u32>)> {
+        let ctx = &self.ctx;
+        let queue = ctx.queue();
+        let f = self.frame.as_ref().expect("frame buffers built");
+        let params = *f.params();
+        let (n, vertices) = (params.view_count as u64, params.vertex_count as u64);
+        let uniform_bytes = bytemuck::bytes_of(&*f.uniform);
+        queue.write_buffer(
+            &f.uniform_buffer,
+            0,
+            &uniform_bytes[..std::mem::size_of::<FrameParams>() + 64 * n as usize],
+        );
+        match input {
+            Input::Screen(screens) => {
+                for (v, screen) in screens.iter().enumerate() {
+                    if !screen.is_empty() {
+                        queue.write_buffer(&f.screen, v as u64 * vertices * 16, bytemuck::cast_slice(screen));
+                    }
+                }
+            }
+            Input::World { positions, cameras } => {
+                if !positions.is_empty() {
+                    queue.write_buffer(&f.positions, 0, bytemuck::cast_slice(positions));
+                }
+                queue.write_buffer(&f.cameras, 0, bytemuck::cast_slice(cameras));
+            }
+        }
+
+        let p = &self.pipelines;
+        let g = &f.groups;
+        let mut encoder = ctx.encoder("diffsil forward");
+        encoder.clear_buffer(&f.counts, 0, None);
+        encoder.clear_buffer(&f.status, 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("diffsil forward"),
+                timestamp_writes: None,
+            });
+            if let Some(group) = &g.project {
+                pass.set_pipeline(&p.project);
+                pass.set_bind_group(0, group, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
+            }
+            let per_triangle = check_index(n * params.triangle_count as u64)?;
+            pass.set_pipeline(&p.bin_count);
+            pass.set_bind_group(0, &g.bin_count, &[]);
+            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            pass.set_pipeline(&p.scan);
+            pass.set_bind_group(0, &g.scan, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&p.bin_fill);
+            pass.set_bind_group(0, &g.bin_fill, &[]);
+            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            pass.set_pipeline(&p.coverage);
+            pass.set_bind_group(0, &g.coverage, &[]);
+            let grid = super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
+            if grid[0] > 0 {
+                pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
+            }
+            pass.set_pipeline(&p.resolve);
+            pass.set_bind_group(0, &g.resolve, &[]);
+            ctx.dispatch_1d(&mut pass, params.total_pixels, 64)?;
+            pass.set_pipeline(&p.orient);
+            pass.set_bind_group(0, &g.orient, &[]);
+            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            pass.set_pipeline(&p.edges);
+            pass.set_bind_group(0, &g.edges, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
+        }
+        let image_bytes = params.total_pixels as u64 * 4;
+        let status_bytes = status::len(n as usize) as u64 * 4;
+        encoder.copy_buffer_to_buffer(&f.image, 0, &f.staging, 0, image_bytes);
+        encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, image_bytes, status_bytes);
+        ctx.submit(encoder)?;
+        let bytes = ctx.read_staging(&f.staging, image_bytes + status_bytes)?;
+        let pixels: &[f32] = bytemuck::cast_slice(&bytes[..image_bytes as usize]);
+        let counters: Vec<u32> = bytemuck::cast_slice(&bytes[image_bytes as usize..]).to_vec();
+        let images = f
+            .views()
+            .iter()
+            .map(|v| {
+                let start = v.pixel_offset as usize;
+                pixels[start..start + v.raster.pixel_count()].to_vec()
+            })
+            .collect();
+        Ok((images, counters))
+    }
+
+    /// The backward of all views in one submission: `∂L/∂I` per view → `∂L/∂(screen vertex)` per
+    /// view, with the segment counts. Runs the frame's forward again first when the buffers no
+    /// longer hold its state.
+    pub fn backward(
+        &mut self,
+        frame: GpuFrame,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: Input<'_>,
+        d_images: &[&[f32]],
+    ) -> Result<(Vec<Vec<Vec2>>, Vec<SegmentStats>)> {
+        let n = params.len();
+        if n == 0 {
+            return Ok((Vec::new(), Vec::new()));
+        }
+        let current = frame.backend == self.id && frame.generation != 0 && frame.generation == self.generation;
+        if !current {
+            self.forward(topology, params, input)?;
+        }
+        self.ensure_partials()?;
+        let ctx = &self.ctx;
+        let queue = ctx.queue();
+        let f = self.frame.as_ref().expect("a forward ran");
+        let partials = f.partials.as_ref().expect("ensured above");
+        let fp = *f.params();
+        for (view, d) in f.views().iter().zip(d_images) {
+            if !d.is_empty() {
+                queue.write_buffer(&f.d_image, view.pixel_offset as u64 * 4, bytemuck::cast_slice(d));
+            }
+        }
+        let (views, vertices) = (fp.view_count as u64, fp.vertex_count as u64);
+        let p = &self.pipelines;
+        let g = &f.groups;
+        let mut encoder = ctx.encoder("diffsil backward");
+        // Clear the backward's counters; the forward's (list lengths, candidates) stay.
+        encoder.clear_buffer(&f.status, status::MAX_ITERATIONS as u64 * 4, Some(4));
+        for v in 0..n {
+            encoder.clear_buffer(&f.status, status::index(v, status::SEGMENTS) as u64 * 4, Some(8));
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("diffsil backward"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&p.edge_grad);
+            pass.set_bind_group(0, &partials.edge_grad, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
+            pass.set_pipeline(&p.edge_sum);
+            pass.set_bind_group(0, &partials.edge_sum, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
+            pass.set_pipeline(&p.gather);
+            pass.set_bind_group(0, &g.gather, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
+        }
+        let grad_bytes = views * vertices * 8;
+        let status_bytes = status::len(n) as u64 * 4;
+        if grad_bytes > 0 {
+            encoder.copy_buffer_to_buffer(&f.grads, 0, &f.staging, 0, grad_bytes);
+        }
+        encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, grad_bytes, status_bytes);
+        ctx.submit(encoder)?;
+        let bytes = ctx.read_staging(&f.staging, grad_bytes + status_bytes)?;
+        let grads: &[Vec2] = bytemuck::cast_slice(&bytes[..grad_bytes as usize]);
+        let counters: &[u32] = bytemuck::cast_slice(&bytes[grad_bytes as usize..]);
+        self.check_iterations(counters[status::MAX_ITERATIONS])?;
+        let per_view = grads.chunks(vertices.max(1) as usize).map(|c| c.to_vec());
+        let mut out: Vec<Vec<Vec2>> = per_view.take(n).collect();
+        out.resize(n, Vec::new());
+        let stats = (0..n)
+            .map(|v| SegmentStats {
+                segments: counters[status::index(v, status::SEGMENTS)] as u64,
+                visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
+            })
+            .collect();
+        Ok((out, stats))
+    }
+}
+
+/// The tile size the GPU reports in [`crate::RenderStats::tile_size`].
+pub(crate) const TILE_SIZE: u32 = GPU_TILE_SIZE;
