@@ -11,7 +11,8 @@
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use diffsil::{loss, shapes, Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
+use diffsil::gpu::GpuOptions;
+use diffsil::{loss, shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 const RESOLUTIONS: [u32; 7] = [16, 32, 64, 128, 256, 512, 1024];
 
@@ -42,19 +43,30 @@ struct Step {
 }
 
 impl Step {
-    fn new(mesh: &Mesh, resolution: u32) -> Step {
-        let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
-        let camera = camera(resolution);
-        let shifted: Vec<Vec3> = mesh.positions().iter().map(|p| *p + Vec3::new(0.05, 0.0, 0.0)).collect();
-        let shifted = Mesh::with_topology(shifted, mesh.topology().clone()).unwrap();
-        let target = renderer.render(&shifted, &[camera]).unwrap().images()[0].clone();
-        Step { mesh: mesh.clone(), target, renderer, camera }
+    /// A step on `backend`, or `None` (with the reason printed) when that backend cannot run it,
+    /// e.g. no GPU adapter, or a device limit.
+    fn new(mesh: &Mesh, resolution: u32, backend: &Backend) -> Option<Step> {
+        let attempt = || -> diffsil::Result<Step> {
+            let mut renderer = Renderer::with_backend(RenderSettings::default(), backend.clone())?;
+            let camera = camera(resolution);
+            let shifted: Vec<Vec3> = mesh.positions().iter().map(|p| *p + Vec3::new(0.05, 0.0, 0.0)).collect();
+            let shifted = Mesh::with_topology(shifted, mesh.topology().clone())?;
+            let target = renderer.render(&shifted, &[camera])?.images()[0].clone();
+            let mut step = Step { mesh: mesh.clone(), target, renderer, camera };
+            step.try_run()?;
+            Ok(step)
+        };
+        attempt().map_err(|e| eprintln!("{backend:?} at {resolution}²: skipped ({e})")).ok()
+    }
+
+    fn try_run(&mut self) -> diffsil::Result<Vec<Vec3>> {
+        let frame = self.renderer.render(&self.mesh, &[self.camera])?;
+        let l2 = loss::squared_error(&frame.images()[0], &self.target)?;
+        self.renderer.backward(&frame, &[l2.grad])
     }
 
     fn run(&mut self) -> Vec<Vec3> {
-        let frame = self.renderer.render(&self.mesh, &[self.camera]).unwrap();
-        let l2 = loss::squared_error(&frame.images()[0], &self.target).unwrap();
-        self.renderer.backward(&frame, &[l2.grad]).unwrap()
+        self.try_run().expect("the step ran once already")
     }
 }
 
@@ -70,22 +82,56 @@ fn median_ms(step: &mut Step) -> f64 {
     times[times.len() / 2]
 }
 
+/// The backends to compare: the CPU, and the GPU when an adapter opens (on a machine whose only
+/// adapter is a software one, lavapipe, set `DIFFSIL_ADAPTER=vulkan` or `llvmpipe` to include it).
+fn backends() -> Vec<(&'static str, Backend)> {
+    let mut backends = vec![("cpu", Backend::Cpu)];
+    let gpu = Backend::Gpu(GpuOptions::from_env());
+    match Renderer::with_backend(RenderSettings::default(), gpu.clone()) {
+        Ok(r) => {
+            eprintln!("GPU series on {}", r.backend_name());
+            backends.push(("gpu", gpu));
+        }
+        Err(e) => eprintln!("no GPU series: {e}"),
+    }
+    backends
+}
+
 fn resolution(c: &mut Criterion) {
     let (mesh, name) = bench_mesh();
-    let mut group = c.benchmark_group(format!("forward+backward/cpu/{name}"));
-    group.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
-    for res in RESOLUTIONS {
-        let mut step = Step::new(&mesh, res);
-        group.bench_with_input(BenchmarkId::from_parameter(format!("{res}x{res}")), &res, |b, _| b.iter(|| step.run()));
+    let backends = backends();
+    for (label, backend) in &backends {
+        let mut group = c.benchmark_group(format!("forward+backward/{label}/{name}"));
+        group.sample_size(10).measurement_time(Duration::from_secs(2)).warm_up_time(Duration::from_millis(500));
+        for res in RESOLUTIONS {
+            let Some(mut step) = Step::new(&mesh, res, backend) else { continue };
+            group.bench_with_input(BenchmarkId::from_parameter(format!("{res}x{res}")), &res, |b, _| {
+                b.iter(|| step.run())
+            });
+        }
+        group.finish();
     }
-    group.finish();
 
     println!("\nms per forward + backward (median), {name}, {} triangles, F = 4, one view", mesh.triangles().len());
-    println!("| resolution | CPU ms |");
-    println!("|---|---|");
+    let gpu = backends.len() > 1;
+    println!(
+        "{}",
+        if gpu {
+            "| resolution | CPU ms | GPU ms | GPU / CPU |\n|---|---|---|---|"
+        } else {
+            "| resolution | CPU ms |\n|---|---|"
+        }
+    );
     for res in RESOLUTIONS {
-        let mut step = Step::new(&mesh, res);
-        println!("| {res}² | {:.2} |", median_ms(&mut step));
+        let cpu = Step::new(&mesh, res, &Backend::Cpu).map(|mut s| median_ms(&mut s));
+        let cell = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2}"));
+        if gpu {
+            let g = Step::new(&mesh, res, &backends[1].1).map(|mut s| median_ms(&mut s));
+            let ratio = cpu.zip(g).map_or("n/a".to_string(), |(c, g)| format!("{:.1}", g / c));
+            println!("| {res}² | {} | {} | {ratio} |", cell(cpu), cell(g));
+        } else {
+            println!("| {res}² | {} |", cell(cpu));
+        }
     }
 }
 
