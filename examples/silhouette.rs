@@ -58,8 +58,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let weights: Vec<f32> = (0..resolution * resolution).map(|_| random() as f32 * 2.0 - 1.0).collect();
     let d_image = Image::from_vec(resolution, resolution, weights.clone())?;
     let grad = renderer.backward(&frame, &[d_image])?;
-    let direction: Vec<Vec3> =
-        (0..mesh.positions().len()).map(|_| Vec3::new(random() as f32, random() as f32, random() as f32) - 0.5).collect();
+    let direction: Vec<Vec3> = (0..mesh.positions().len())
+        .map(|_| Vec3::new(random() as f32, random() as f32, random() as f32) - 0.5)
+        .collect();
     let analytic: f64 = grad.iter().zip(&direction).map(|(g, d)| g.dot(*d) as f64).sum();
 
     let exact_loss = |t: f32| -> Result<f64, diffsil::Error> {
@@ -73,6 +74,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h = 1e-3;
     let numeric = (exact_loss(h)? - exact_loss(-h)?) / (2.0 * h as f64);
     let relative = (analytic - numeric).abs() / numeric.abs().max(1e-12);
-    println!("directional derivative: analytic {analytic:.6}, finite difference {numeric:.6}, relative error {relative:.2e}");
+    println!(
+        "directional derivative: analytic {analytic:.6}, finite difference {numeric:.6}, relative error {relative:.2e}"
+    );
     Ok(())
 }

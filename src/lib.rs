@@ -6,11 +6,11 @@
 pub mod camera;
 pub mod closed_form;
 pub mod cpu;
+mod error;
 pub mod figure;
 pub mod fit;
-mod error;
-pub mod gpu;
 pub mod gltf_io;
+pub mod gpu;
 mod image;
 pub mod io;
 pub mod layout;
