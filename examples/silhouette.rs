@@ -11,7 +11,7 @@
 
 use std::path::PathBuf;
 
-use diffsil::{oracle, shapes, Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
+use diffsil::{oracle, shapes, Camera, Image, RenderSettings, Renderer, Vec3};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mesh_path: Option<PathBuf> = None;
