@@ -222,3 +222,38 @@ fn views_add_up() {
     }
     assert!(a.iter().any(|g| *g != 0.0) && b.iter().any(|g| *g != 0.0));
 }
+
+/// The reference's shortcuts (`VertexDelta` windows, `loss_difference` on silhouette pixels)
+/// equal whole-image evaluations of the oracle.
+#[test]
+fn reference_shortcuts_agree_with_whole_image_evaluations() {
+    for scene in [scenes::torus_fold(), scenes::two_spheres(), scenes::open_patch()] {
+        let mut rng = fd::Rng::new(13);
+        let weights = rng.weights((scene.width * scene.height) as usize);
+        let oracle = fd::OracleLoss::of_scene(&scene, RenderSettings::default(), weights);
+        let index = fd::VertexDelta::new(&oracle, &scene.vertices);
+        let silhouette = fd::silhouette_vertices(&scene.triangles, &scene.vertices);
+        let mut tested = [0, 0];
+        for v in (0..scene.vertices.len()).step_by(7) {
+            let (dp, dm) = (Vec2::new(0.013, -0.021), Vec2::new(-0.017, 0.006));
+            let (mut plus, mut minus) = (scene.vertices.clone(), scene.vertices.clone());
+            plus[v] += dp;
+            minus[v] += dm;
+            let whole = oracle.loss(&plus) - oracle.loss(&minus);
+            let windowed = index.delta(&oracle, v, plus[v], minus[v]);
+            assert!((whole - windowed).abs() <= 1e-11, "{} vertex {v}: {whole} vs {windowed}", scene.name);
+            tested[silhouette[v] as usize] += (whole != 0.0) as usize;
+        }
+        assert!(tested[1] > 0, "{}: no silhouette vertex tested", scene.name);
+        for _ in 0..3 {
+            let (mut plus, mut minus) = (scene.vertices.clone(), scene.vertices.clone());
+            for (p, m) in plus.iter_mut().zip(&mut minus) {
+                *p += Vec2::new(rng.range(-1e-3, 1e-3) as f32, rng.range(-1e-3, 1e-3) as f32);
+                *m += Vec2::new(rng.range(-1e-3, 1e-3) as f32, rng.range(-1e-3, 1e-3) as f32);
+            }
+            let whole = oracle.loss(&plus) - oracle.loss(&minus);
+            let masked = oracle.loss_difference(&plus, &minus);
+            assert!((whole - masked).abs() <= 1e-11, "{}: {whole} vs {masked}", scene.name);
+        }
+    }
+}

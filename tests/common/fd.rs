@@ -13,17 +13,24 @@
 //! a sliver face seen nearly edge-on whose free vertex lies within 1e-3 px of a contour (the
 //! `two_spheres` scene has one at 3.6e-4 px). With 1e-3 px those scenes measure 5e-4 and 1e-2.
 //!
-//! **3D.** The reference moves world points in `f64`, projects them in `f64` with its own
+//! **3D.** The reference moves world points in `f64` and maps them to the screen with its own
 //! implementation of the documented camera model ([`project_f64`], from the camera's
-//! `ViewParams`), and hands the screen points to the oracle, which takes `f32`. That rounding
-//! (≤ ½ ulp ≈ 1e-6 px) would swamp a small step, so each evaluation is corrected to first order:
+//! `ViewParams`): a vertex lands at the renderer's own `f32` screen point plus the `f64`
+//! projection's difference, so the differences are taken around exactly the point the analytic
+//! gradient is evaluated at (with the `f64` points themselves as base, near-degenerate slivers of
+//! the bunny gave 3e-4 of spurious error), while the derivative of the map is the independent
+//! `f64` one — the camera Jacobian is checked. The oracle takes `f32`, and that rounding (≤ ½ ulp
+//! ≈ 1e-6 px) would swamp a small step, so each evaluation is corrected to first order:
 //! `L(s) ≈ L(round(s)) − g₂ · (round(s) − s)`, with `g₂` the 2D finite-difference gradient of the
 //! oracle at the base point (a reference quantity: nothing from the renderer is used). The step
 //! moves a typical vertex by `h` pixels.
 //!
-//! Single-coordinate differences are evaluated on a window: moving vertex `v` changes only pixels
-//! under its incident triangles, and those pixels depend only on triangles overlapping them, so
-//! the oracle runs on that subset and `L₊ − L₋` is summed over the window (exact, much faster).
+//! **Cost.** A single-vertex difference is evaluated on a window ([`VertexDelta`]): moving vertex
+//! `v` changes only the pixels its incident triangles touch, and those depend only on the
+//! triangles overlapping them, so the oracle runs on that window and subset. A difference where
+//! every vertex moves is summed over the pixels a possible silhouette edge touches
+//! ([`OracleLoss::loss_difference`]); every other pixel is wholly covered or wholly empty in both
+//! states. `tests/gradients.rs` checks both shortcuts against whole-image evaluations.
 //!
 //! Reported errors: `‖g − g_fd‖ / ‖g_fd‖` over the full vertex gradient, and `|D − D_fd| / |D_fd|`
 //! for directional derivatives along random directions (all vertices move; directions nearly
