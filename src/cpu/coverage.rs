@@ -16,7 +16,7 @@ use crate::layout::{RasterParams, INVALID_SNAPPED};
 pub struct SnappedTriangle {
     /// Vertices in fixed-point units.
     pub v: [[i64; 2]; 3],
-    /// 1 for top/left edges (a sample exactly on them is inside), else 0. Edge k runs v[k] → v[k+1].
+    /// 1 for top/left edges (a sample exactly on them is inside), else 0. Edge k runs `v[k] → v[k + 1]`.
     pub bias: [i64; 3],
 }
 
