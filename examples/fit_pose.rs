@@ -132,7 +132,10 @@ fn fit(model: &SkinnedMesh, o: &Options, pictures: bool, quiet: bool) -> Result<
     let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
     let truth = random_pose(&limits, 30f32.to_radians(), o.seed);
     let truth_vertices = model.skin(&truth)?;
-    let cameras = framing_cameras(&model.mesh, o.views, o.resolution);
+    // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).
+    let rest_mesh =
+        diffsil::Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
+    let cameras = framing_cameras(&rest_mesh, o.views, o.resolution);
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
     let mut renderer = Renderer::with_backend(settings, backend(&o.backend)?)?;
     let truth_mesh = diffsil::Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
