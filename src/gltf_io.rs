@@ -60,7 +60,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 use gltf::scene::Transform;
 
-use crate::skin::{JointRest, Skeleton, SkinnedMesh};
+use crate::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use crate::{Error, Mesh, Result};
 
 /// What [`load_gltf`] found in a glTF file.
@@ -134,7 +134,7 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
         Some("gltf" | "glb") => match load_gltf(path)? {
             Model::Static(mesh) => Ok(mesh),
             Model::Skinned(skinned) => {
-                Mesh::with_topology(rest_pose_positions(&skinned), skinned.mesh.topology().clone())
+                Mesh::with_topology(skinned.skin(&Pose::rest(skinned.joint_count()))?, skinned.mesh.topology().clone())
             }
         },
         _ => Err(Error::Format {
@@ -811,35 +811,6 @@ fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, 
         }
     };
     Ok((model, info))
-}
-
-/// World transforms of the joints in the rest pose.
-fn rest_world(skeleton: &Skeleton) -> Vec<Mat4> {
-    let mut world: Vec<Mat4> = Vec::with_capacity(skeleton.parents.len());
-    for (j, rest) in skeleton.rest.iter().enumerate() {
-        let local = Mat4::from_scale_rotation_translation(rest.scale, rest.rotation, rest.translation);
-        let parent = match skeleton.parents[j] {
-            Some(p) => world[p],
-            None => skeleton.root_parent[j],
-        };
-        world.push(parent * local);
-    }
-    world
-}
-
-/// Linear-blend skinning with every joint at its rest transform.
-fn rest_pose_positions(skinned: &SkinnedMesh) -> Vec<Vec3> {
-    let skinning: Vec<Mat4> =
-        rest_world(&skinned.skeleton).iter().zip(&skinned.skeleton.inverse_bind).map(|(g, b)| *g * *b).collect();
-    skinned
-        .mesh
-        .positions()
-        .iter()
-        .zip(skinned.joints.iter().zip(&skinned.weights))
-        .map(|(&p, (joints, weights))| {
-            joints.iter().zip(weights).map(|(&j, &w)| w * skinning[usize::from(j)].transform_point3(p)).sum()
-        })
-        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------
