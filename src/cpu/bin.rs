@@ -29,11 +29,6 @@ impl Bins {
         let range = self.offsets[t] as usize..self.offsets[t + 1] as usize;
         self.triangles[range.clone()].iter().copied().zip(&self.boxes[range])
     }
-
-    /// Triangle indices of tile `t`.
-    pub fn tile_triangles(&self, t: usize) -> &[u32] {
-        &self.triangles[self.offsets[t] as usize..self.offsets[t + 1] as usize]
-    }
 }
 
 /// Inclusive tile range `[tx0, ty0, tx1, ty1]` of a triangle, or `None` when it is culled or

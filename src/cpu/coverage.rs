@@ -54,32 +54,6 @@ impl SnappedTriangle {
     pub fn covers(&self, p: [i64; 2]) -> bool {
         (0..3).all(|k| self.edge_function(k, p) + self.bias[k] > 0)
     }
-
-    /// Covered sample columns `[lo, hi]` in sample row `sy` (within `[col_lo, col_hi]`): the exact
-    /// solution of the three edge inequalities for integer sample columns. Same result as testing
-    /// [`SnappedTriangle::covers`] at every sample, which is what WGSL does.
-    pub fn row_span(&self, params: &RasterParams, sy: i64, col_lo: i64, col_hi: i64) -> Option<(i64, i64)> {
-        let h = params.half_step as i64;
-        let py = (2 * sy + 1) * h;
-        let (mut lo, mut hi) = (col_lo, col_hi);
-        for k in 0..3 {
-            let (a, b) = (self.v[k], self.v[(k + 1) % 3]);
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            // E(sx) + bias = c0 + c1·sx with px = (2·sx + 1)·h.
-            let c1 = -dy * 2 * h;
-            let c0 = dx * (py - a[1]) - dy * (h - a[0]) + self.bias[k];
-            if c1 == 0 {
-                if c0 <= 0 {
-                    return None;
-                }
-            } else if c1 > 0 {
-                lo = lo.max((-c0).div_euclid(c1) + 1); // c0 + c1·sx > 0  ⇔  sx > −c0/c1
-            } else {
-                hi = hi.min((c0 - 1).div_euclid(-c1)); // ⇔  sx < c0/(−c1)  ⇔  sx ≤ ⌊(c0 − 1)/(−c1)⌋
-            }
-        }
-        (lo <= hi).then_some((lo, hi))
-    }
 }
 
 /// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
@@ -254,7 +228,7 @@ impl SnappedTriangle {
 
     /// Covers rows `rows` (sample rows, within columns `cols`) by exact spans, each edge's bound
     /// stepped from row to row with an incremental floor division (a few divisions per triangle,
-    /// none per row). Same samples as [`SnappedTriangle::row_span`] gives row by row.
+    /// none per row). Same samples as testing [`SnappedTriangle::covers`] at each one.
     fn raster_rows(&self, params: &RasterParams, cols: (i64, i64), rows: (i64, i64), band: &mut Band<'_>) {
         let h = params.half_step as i64;
         let py0 = (2 * rows.0 + 1) * h;
