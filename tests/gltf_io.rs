@@ -4,8 +4,11 @@
 //! The tests marked `#[ignore]` read the Khronos sample models in `$DIFFSIL_ASSETS`:
 //! `DIFFSIL_ASSETS=../shared/assets cargo test --test gltf_io -- --include-ignored`.
 
+#[path = "common/files.rs"]
+mod files;
+use files::{temp_dir, write};
+
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use diffsil::gltf_io::{load_gltf, load_gltf_with_info, load_mesh, save_glb, LoadInfo, Model};
 use diffsil::skin::{JointRest, Skeleton, SkinnedMesh};
@@ -14,22 +17,6 @@ use glam::{DMat4, DQuat, DVec3, Mat4, Quat};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
-
-/// A fresh, empty folder under the system temp dir, unique to this process and call.
-fn temp_dir() -> PathBuf {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("diffsil-gltf-test-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(name: &str, content: &[u8]) -> PathBuf {
-    let path = temp_dir().join(name);
-    std::fs::write(&path, content).unwrap();
-    path
-}
 
 /// A GLB container around a JSON text and a binary chunk (padded as the spec says).
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {

@@ -1,26 +1,13 @@
 //! Tests of `diffsil::io`: OBJ loading with welding, PNG saving and target loading.
 
+#[path = "common/files.rs"]
+mod files;
+use files::{temp_dir, write};
+
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use diffsil::io::{load_obj, load_png_target, save_png, weld_by_position, TargetMode};
 use diffsil::{Error, Image, Vec3};
-
-/// A fresh, empty folder under the system temp dir, unique to this process and call.
-fn temp_dir() -> PathBuf {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("diffsil-io-test-{}-{n}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(name: &str, content: &[u8]) -> PathBuf {
-    let path = temp_dir().join(name);
-    std::fs::write(&path, content).unwrap();
-    path
-}
 
 /// A unit cube written like exporters do: 24 vertex/uv/normal corners over 8 positions
 /// (each face has its own normal, so every corner is split per face), as 6 quads.
