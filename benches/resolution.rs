@@ -1,5 +1,6 @@
 //! One optimisation step's cost against resolution (paper Table 3): projection, forward, L2 loss
-//! against the silhouette of the mesh shifted by 0.05, backward to 3D vertices.
+//! against the silhouette of the mesh shifted by 0.05, backward to 3D vertices — one
+//! `Renderer::squared_error_step`, which on the GPU keeps the images and the loss on the device.
 //!
 //! Scene (fixed so figures compare across tools): the mesh normalised so its bounding-box centre
 //! is at the origin and its farthest vertex at distance 1, a perspective camera at (0, 0, 2.7)
@@ -12,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use diffsil::gpu::GpuOptions;
-use diffsil::{loss, shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
+use diffsil::{shapes, Backend, Camera, Mesh, RenderSettings, Renderer, Targets, Vec3};
 
 const RESOLUTIONS: [u32; 7] = [16, 32, 64, 128, 256, 512, 1024];
 
@@ -37,7 +38,7 @@ fn camera(resolution: u32) -> Camera {
 /// A ready-to-run step: the mesh, the target image for this resolution, and a renderer.
 struct Step {
     mesh: Mesh,
-    target: Image,
+    targets: Targets,
     renderer: Renderer,
     camera: Camera,
 }
@@ -51,8 +52,8 @@ impl Step {
             let camera = camera(resolution);
             let shifted: Vec<Vec3> = mesh.positions().iter().map(|p| *p + Vec3::new(0.05, 0.0, 0.0)).collect();
             let shifted = Mesh::with_topology(shifted, mesh.topology().clone())?;
-            let target = renderer.render(&shifted, &[camera])?.images()[0].clone();
-            let mut step = Step { mesh: mesh.clone(), target, renderer, camera };
+            let targets = Targets::new(renderer.render(&shifted, &[camera])?.images().to_vec())?;
+            let mut step = Step { mesh: mesh.clone(), targets, renderer, camera };
             step.try_run()?;
             Ok(step)
         };
@@ -60,9 +61,7 @@ impl Step {
     }
 
     fn try_run(&mut self) -> diffsil::Result<Vec<Vec3>> {
-        let frame = self.renderer.render(&self.mesh, &[self.camera])?;
-        let l2 = loss::squared_error(&frame.images()[0], &self.target)?;
-        self.renderer.backward(&frame, &[l2.grad])
+        Ok(self.renderer.squared_error_step(&self.mesh, &[self.camera], &self.targets)?.gradient)
     }
 
     fn run(&mut self) -> Vec<Vec3> {
@@ -86,7 +85,8 @@ fn median_ms(step: &mut Step) -> f64 {
 /// adapter is a software one, lavapipe, set `DIFFSIL_ADAPTER=vulkan` or `llvmpipe` to include it).
 fn backends() -> Vec<(&'static str, Backend)> {
     let mut backends = vec![("cpu", Backend::Cpu)];
-    let gpu = Backend::Gpu(GpuOptions::from_env());
+    // Profiling (DIFFSIL_GPU_PROFILE) adds waits: time without it, profile separately below.
+    let gpu = Backend::Gpu(GpuOptions { profile: false, ..GpuOptions::from_env() });
     match Renderer::with_backend(RenderSettings::default(), gpu.clone()) {
         Ok(r) => {
             eprintln!("GPU series on {}", r.backend_name());
@@ -135,5 +135,36 @@ fn resolution(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, resolution);
+/// With `DIFFSIL_GPU_PROFILE=1`: the GPU time of each stage at every resolution, from timestamp
+/// queries (one step after two warm-up steps).
+fn gpu_stage_profile(mesh: &Mesh) {
+    let options = GpuOptions::from_env();
+    if !options.profile {
+        return;
+    }
+    let backend = Backend::Gpu(options);
+    println!("\nGPU stage times (µs, timestamp queries), one step");
+    for res in RESOLUTIONS {
+        let Some(mut step) = Step::new(mesh, res, &backend) else { continue };
+        step.run();
+        step.run();
+        let wall = Instant::now();
+        step.run();
+        let wall = wall.elapsed().as_secs_f64() * 1e6;
+        let timings = step.renderer.gpu_stage_timings();
+        if timings.is_empty() {
+            println!("no timestamp queries on this adapter");
+            return;
+        }
+        let total: f64 = timings.iter().map(|t| t.microseconds).sum();
+        let stages: Vec<String> = timings.iter().map(|t| format!("{} {:.0}", t.stage, t.microseconds)).collect();
+        println!("{res}²: wall {wall:.0}, GPU total {total:.0}: {}", stages.join(", "));
+    }
+}
+
+fn profile(_: &mut Criterion) {
+    gpu_stage_profile(&bench_mesh().0);
+}
+
+criterion_group!(benches, resolution, profile);
 criterion_main!(benches);

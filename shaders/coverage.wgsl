@@ -5,15 +5,19 @@
 //         large-triangle lists), `status` (the large lists' lengths).
 // Writes: `masks[(pixel_offset + row · width + column) · words_per_pixel + w]` for every pixel of
 //         every view (each written exactly once, by the invocation that owns the pixel).
-// Dispatch: one workgroup per tile of GPU_TILE_SIZE² pixels, over the tiles of all views
-//         (`total_tiles` workgroups, tiled into a 2D grid beyond 65,535); invocation = pixel.
+// Dispatch: one workgroup of 256 invocations per tile (tile_size² pixels, tile_size 1 to 16 per
+//         view), over the tiles of all views (`total_tiles` workgroups, tiled into a 2D grid
+//         beyond 65,535).
 //
-// The workgroup walks its tile's triangle list, then its view's large-triangle list, 256 triangles
-// at a time: each invocation snaps one triangle into workgroup memory (vertices, top-left biases,
-// sample bounding box), then every invocation tests its own pixel's samples against each of them.
-// A triangle covering the whole screen is therefore spread over all tiles and all pixels, never
-// serialised. Each invocation also reports its loop iteration count (`STATUS_MAX_ITERATIONS`, see
-// `stages::LLVMPIPE_LOOP_LIMIT`).
+// Invocation `lid` works on pixel `lid % tile_size²` of the tile as lane `lid / tile_size²` of
+// `256 / tile_size²` lanes. The workgroup walks its tile's triangle list, then its view's
+// large-triangle list, CHUNK triangles at a time: invocations snap one triangle each into
+// workgroup memory (vertices, top-left biases, sample bounding box), then every lane tests its
+// pixel's samples against its share of them (every lanes-th triangle). The lanes' bits are ORed in
+// workgroup memory and one lane writes the pixel. A triangle covering the whole screen is spread
+// over all tiles and pixels, and a small tile full of tiny triangles over 256 / tile_size² lanes:
+// nothing is serialised. On llvmpipe each invocation also counts its loop iterations
+// (`STATUS_MAX_ITERATIONS`, see `stages::LLVMPIPE_LOOP_LIMIT`).
 //
 // The predicate is `SnappedTriangle::covers` exactly: vertices snapped with `snap` (bit-exact,
 // shared/exact.wgsl), edge functions E = dx·(py − ay) − dy·(px − ax) in exact integers, a sample
@@ -38,13 +42,20 @@ const FLAG_SMALL: i32 = 2;
 // Bits 2, 3, 4: top-left bias of edges 0, 1, 2.
 const FLAG_BIAS_SHIFT: u32 = 2u;
 
+// Triangles snapped per chunk.
+const CHUNK: u32 = 128u;
 // Per triangle of the current chunk: (v0.x, v0.y, v1.x, v1.y), (v2.x, v2.y, flags, 0) and the
 // sample box (first column, first row, last column, last row).
-var<workgroup> sh_v01: array<vec4<i32>, 256>;
-var<workgroup> sh_v2f: array<vec4<i32>, 256>;
-var<workgroup> sh_box: array<vec4<i32>, 256>;
+var<workgroup> sh_v01: array<vec4<i32>, CHUNK>;
+var<workgroup> sh_v2f: array<vec4<i32>, CHUNK>;
+var<workgroup> sh_box: array<vec4<i32>, CHUNK>;
+// The tile's masks: words_per_pixel words per pixel (at most 256 pixels × 8 words).
+var<workgroup> sh_masks: array<atomic<u32>, 2048>;
 // (first tile-list entry, tile-list length, large-list length).
 var<workgroup> sh_range: vec3<u32>;
+// llvmpipe accounting: the most iterations any lane needs for the current chunk, and whether to
+// stop.
+var<workgroup> sh_chunk_cost: atomic<u32>;
 var<workgroup> sh_stop: u32;
 
 struct Setup {
@@ -117,6 +128,24 @@ fn edge_passes(e: vec2<u32>, flags: i32, k: u32) -> bool {
     return !i64_is_negative(e) && (bias || !i64_is_zero(e));
 }
 
+// Iterations lane `lane` of `lanes` runs on the triangles of the current chunk, bounded over the
+// tile's pixels: each triangle touching the tile as if it touched every pixel (llvmpipe runs
+// invocations in SIMD batches whose loops run as long as their longest lane's).
+fn chunk_cost(count: u32, lane: u32, lanes: u32, f: i32, tile_cols: vec2<i32>, tile_rows: vec2<i32>) -> u32 {
+    var cost = 4u + 2u * ((count + lanes - 1u) / lanes);
+    for (var j = lane; j < count; j += lanes) {
+        let box = sh_box[j];
+        if (sh_v2f[j].z & FLAG_NONEMPTY) != 0 && box.x <= tile_cols.y && box.z >= tile_cols.x
+            && box.y <= tile_rows.y && box.w >= tile_rows.x {
+            // A pixel tests at most min(F, box width) × min(F, box height) samples.
+            let w = u32(min(f, box.z - box.x + 1));
+            let h = u32(min(f, box.w - box.y + 1));
+            cost += 3u + h * (w + 2u);
+        }
+    }
+    return cost;
+}
+
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
@@ -130,21 +159,30 @@ fn main(
     let view = view_of_tile(g);
     let vw = frame.views[view];
     let r = vw.raster;
+    let t = r.tile_size;
+    let tile_pixels = t * t;
+    let lanes = 256u / tile_pixels;
+    let lane = lid / tile_pixels;
+    let pixel = lid % tile_pixels;
     let local_tile = g - vw.tile_offset;
-    let px = (local_tile % r.tiles_x) * GPU_TILE_SIZE + lid % GPU_TILE_SIZE;
-    let py = (local_tile / r.tiles_x) * GPU_TILE_SIZE + lid / GPU_TILE_SIZE;
+    let tile_x = (local_tile % r.tiles_x) * t;
+    let tile_y = (local_tile / r.tiles_x) * t;
+    let px = tile_x + pixel % t;
+    let py = tile_y + pixel / t;
     let in_image = px < r.width && py < r.height;
     let f = i32(r.supersample);
     let h = i32(r.half_step);
+    let wpp = r.words_per_pixel;
     // This pixel's sample columns and rows.
     let pc0 = i32(px) * f;
     let pr0 = i32(py) * f;
     // The tile's sample columns and rows.
-    let tile_x = i32((local_tile % r.tiles_x) * GPU_TILE_SIZE);
-    let tile_y = i32((local_tile / r.tiles_x) * GPU_TILE_SIZE);
-    let tile_cols = vec2<i32>(tile_x * f, (tile_x + i32(GPU_TILE_SIZE)) * f - 1);
-    let tile_rows = vec2<i32>(tile_y * f, (tile_y + i32(GPU_TILE_SIZE)) * f - 1);
+    let tile_cols = vec2<i32>(i32(tile_x) * f, i32(tile_x + t) * f - 1);
+    let tile_rows = vec2<i32>(i32(tile_y) * f, i32(tile_y + t) * f - 1);
 
+    for (var w = lid; w < tile_pixels * wpp; w += 256u) {
+        atomicStore(&sh_masks[w], 0u);
+    }
     if lid == 0u {
         let cap = frame.params.bin_capacity;
         let start = min(bins[g], cap);
@@ -153,46 +191,43 @@ fn main(
     let range = workgroupUniformLoad(&sh_range);
     let total = range.y + range.z;
     let large = frame.params.large_offset + view * frame.params.triangle_count;
+    let counting = frame.params.loop_budget != 0u;
 
     var words = array<u32, 8>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     var iterations = 0u;
-    for (var chunk = 0u; chunk < total; chunk += 256u) {
+    for (var chunk = 0u; chunk < total; chunk += CHUNK) {
         let k = chunk + lid;
-        var s = Setup(vec4<i32>(0), vec4<i32>(0), vec4<i32>(0));
-        if k < range.y {
-            s = setup(view, bins[frame.params.bin_list_offset + range.x + k]);
-        } else if k < total {
-            s = setup(view, bins[large + k - range.y]);
+        if lid < CHUNK {
+            var s = Setup(vec4<i32>(0), vec4<i32>(0), vec4<i32>(0));
+            if k < range.y {
+                s = setup(view, bins[frame.params.bin_list_offset + range.x + k]);
+            } else if k < total {
+                s = setup(view, bins[large + k - range.y]);
+            }
+            sh_v01[lid] = s.v01;
+            sh_v2f[lid] = s.v2f;
+            sh_box[lid] = s.box;
         }
-        sh_v01[lid] = s.v01;
-        sh_v2f[lid] = s.v2f;
-        sh_box[lid] = s.box;
+        if lid == 0u {
+            atomicStore(&sh_chunk_cost, 0u);
+        }
         workgroupBarrier();
-        let count = min(256u, total - chunk);
-        // Iterations of this chunk, counted the same in every invocation as if each pixel met
-        // every triangle that touches the tile: llvmpipe runs invocations in SIMD batches whose
-        // loops run as long as their longest lane's, so only a tile-wide bound is safe (see
-        // `stages::LLVMPIPE_LOOP_LIMIT`).
-        iterations += 4u + 2u * count;
-        for (var j = 0u; j < count; j++) {
-            let box = sh_box[j];
-            if (sh_v2f[j].z & FLAG_NONEMPTY) != 0 && box.x <= tile_cols.y && box.z >= tile_cols.x
-                && box.y <= tile_rows.y && box.w >= tile_rows.x {
-                // A pixel tests at most min(F, box width) × min(F, box height) samples.
-                let w = u32(min(f, box.z - box.x + 1));
-                let h = u32(min(f, box.w - box.y + 1));
-                iterations += 3u + h * (w + 2u);
+        let count = min(CHUNK, total - chunk);
+        if counting {
+            // Past the budget (llvmpipe only, see `stages::LLVMPIPE_LOOP_LIMIT`) the tile stops
+            // and reports it, so that the host fails instead of returning a truncated image. Every
+            // invocation adds the chunk's largest lane cost: the same count everywhere.
+            atomicMax(&sh_chunk_cost, chunk_cost(count, lane, lanes, f, tile_cols, tile_rows));
+            workgroupBarrier();
+            iterations += atomicLoad(&sh_chunk_cost);
+            if lid == 0u {
+                sh_stop = select(0u, 1u, iterations > frame.params.loop_budget);
+            }
+            if workgroupUniformLoad(&sh_stop) != 0u {
+                break;
             }
         }
-        // Past the budget (llvmpipe only, see `stages::LLVMPIPE_LOOP_LIMIT`) the tile stops and
-        // reports it, so that the host fails instead of returning a truncated image.
-        if lid == 0u {
-            sh_stop = select(0u, 1u, frame.params.loop_budget != 0u && iterations > frame.params.loop_budget);
-        }
-        if workgroupUniformLoad(&sh_stop) != 0u {
-            break;
-        }
-        for (var j = 0u; j < count && in_image; j++) {
+        for (var j = lane; j < count && in_image; j += lanes) {
             let v2f = sh_v2f[j];
             let flags = v2f.z;
             if (flags & FLAG_NONEMPTY) == 0 {
@@ -296,10 +331,19 @@ fn main(
     if lid == 0u && iterations > 4096u {
         atomicMax(&status[STATUS_MAX_ITERATIONS], iterations);
     }
+    // OR the lanes' bits, then one lane writes the pixel.
     if in_image {
-        let base = (vw.pixel_offset + py * r.width + px) * r.words_per_pixel;
-        for (var w = 0u; w < r.words_per_pixel; w++) {
-            masks[base + w] = words[w];
+        for (var w = 0u; w < wpp; w++) {
+            if words[w] != 0u {
+                atomicOr(&sh_masks[pixel * wpp + w], words[w]);
+            }
+        }
+    }
+    workgroupBarrier();
+    if in_image && lane == 0u {
+        let base = (vw.pixel_offset + py * r.width + px) * wpp;
+        for (var w = 0u; w < wpp; w++) {
+            masks[base + w] = atomicLoad(&sh_masks[pixel * wpp + w]);
         }
     }
 }

@@ -13,18 +13,19 @@
 //         parts of each edge in order and applies the outward normal.
 //
 // Part p of an edge covers the pixels whose coordinate along the edge's major axis lies in
-// [16p, 16p + 16): at most ~33 pixels, so no invocation runs long (a 1000-pixel edge is 63 parts
-// in parallel), and every pixel of the edge belongs to exactly one part.
+// [tp, tp + t), t the view's tile size: at most ~2t + 1 pixels in 2 or 3 tiles, so no invocation
+// runs long (a 1000-pixel edge at t = 8 is 125 parts in parallel), and every pixel of the edge
+// belongs to exactly one part. The occluders of each tile the part crosses are intersected with
+// the part's segment once, then clipped to each of its pixels.
 //
 // Per pixel: the scanline DDA of the CPU (rows the segment spans, columns within each row),
 // Liang–Barsky clipping to the pixel, ½ weight for a segment lying on a pixel border, then the
 // visible parts: every triangle listed in the pixel's tile (and in its view's large list) gives
 // the parameter interval where the point just outside the edge (+ε·outward) is inside it, and the
 // closed form is applied to the complement of their union. The CPU sorts the intervals; here the
-// union is merged in the same sorted order without sorting — each step takes the next interval
-// in (start, end) order by a scan — so the gaps are summed in the same order whatever the order
-// of the tile lists: deterministic. Intervals are cached in registers (64) and recomputed from
-// the lists when there are more.
+// union is swept in increasing order without sorting (`visible_weights`), so the gaps are summed
+// in the same order whatever the order of the tile lists: deterministic. Intervals are cached in
+// registers (64) and recomputed from the lists when there are more.
 //
 // Precision: the CPU computes in f64. Here every clip parameter, occlusion bound and gap length
 // is computed in float-float arithmetic (shared/ff.wgsl, ~44 bits) from differences of the f32
@@ -69,11 +70,6 @@ fn tick() -> bool {
 
 fn iv_empty(iv: vec4<f32>) -> bool {
     return ff_le(iv.zw, iv.xy);
-}
-
-// (lo, hi) of a strictly before (lo, hi) of b.
-fn iv_before(a: vec4<f32>, b: vec4<f32>) -> bool {
-    return ff_lt(a.xy, b.xy) || (a.x == b.x && a.y == b.y && ff_lt(a.zw, b.zw));
 }
 
 // Liang–Barsky step (`closed_form::clip_parameter`): narrows s = (s0, s1) so that
@@ -181,59 +177,76 @@ fn list_entry(lists: Lists, k: u32) -> u32 {
     return bins[lists.large_start + k - lists.tile_count];
 }
 
-// Interval k: from the cache, or (when the lists overflowed it) recomputed from list entry k.
-fn interval(k: u32, cached: bool, edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
-    if cached {
-        return cache[k];
-    }
-    return occluded_interval(edge, list_entry(lists, k), c, bb);
-}
+// What `fill_cache` returns when one interval covers the whole range.
+const HIDDEN: u32 = 0xffffffffu;
 
-// Visible weights [∫(1 − s), ∫ s] over the parts of [c.lo, c.hi] that no interval covers, merged
-// and summed in (start, end) order of the intervals, like the CPU.
-fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec2<f32> {
+// Fills `cache` with the non-empty intervals, over [c.lo, c.hi], of the triangles in `lists`
+// (only the first CACHE when there are more); returns how many there are, or HIDDEN as soon as one
+// covers all of [c.lo, c.hi].
+fn fill_cache(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> u32 {
     let total = lists.tile_count + lists.large_count;
     var n = 0u;
     for (var k = 0u; k < total && tick(); k++) {
         let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
         if !iv_empty(iv) {
+            if ff_le(iv.xy, c.xy) && ff_le(c.zw, iv.zw) {
+                return HIDDEN;
+            }
             if n < CACHE {
                 cache[n] = iv;
             }
             n++;
         }
     }
-    let cached = n <= CACHE;
-    if !cached {
-        n = total;
+    return n;
+}
+
+// Interval k over [c.lo, c.hi]: a cached interval (computed over a range containing c) clipped to
+// c — the same bits as computing it over c, since the occluder bounds only narrow it with exact
+// max/min — or, when the lists overflowed the cache, recomputed from list entry k.
+fn interval(k: u32, cached: bool, edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
+    if cached {
+        let iv = cache[k];
+        return vec4<f32>(ff_max(iv.xy, c.xy), ff_min(iv.zw, c.zw));
     }
+    return occluded_interval(edge, list_entry(lists, k), c, bb);
+}
+
+// Visible weights [∫(1 − s), ∫ s] over the parts of [c.lo, c.hi] that none of the `n` intervals
+// (`interval`) covers. The union is swept from c.lo: each pass over the intervals either extends
+// the covered prefix to the farthest end among the intervals starting inside it, or emits the gap
+// up to the nearest start beyond it. Gaps come out in increasing order with the endpoints the
+// CPU's sorted merge finds, whatever the order of the lists (deterministic).
+fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32, cached: bool) -> vec2<f32> {
     var weights = vec2<f32>(0.0);
     var cursor = c.xy;
-    var previous = vec4<f32>(0.0);
-    var have_previous = false;
-    // Each step takes the next distinct interval in (start, end) order: at most n + 1 steps.
-    for (var step = 0u; step <= n && tick(); step++) {
-        var found = false;
-        var next = vec4<f32>(0.0);
+    // Each pass extends the cursor or moves it past a gap to an interval's start: at most 2n + 1.
+    for (var sweep = 0u; sweep <= 2u * n && tick(); sweep++) {
+        var reach = cursor;
+        var next = c.zw;
         for (var k = 0u; k < n && tick(); k++) {
             let iv = interval(k, cached, edge, lists, c, bb);
-            if !iv_empty(iv) && (!have_previous || iv_before(previous, iv)) && (!found || iv_before(iv, next)) {
-                next = iv;
-                found = true;
+            if iv_empty(iv) {
+                continue;
+            }
+            if ff_le(iv.xy, cursor) {
+                reach = ff_max(reach, iv.zw);
+            } else {
+                next = ff_min(next, iv.xy);
             }
         }
-        if !found {
+        if ff_lt(cursor, reach) {
+            cursor = reach;
+            continue;
+        }
+        // Nothing covers just past the cursor: a gap up to the next start (or the end).
+        if ff_lt(cursor, next) {
+            weights += segment_weights(cursor, next);
+        }
+        if ff_le(c.zw, next) {
             break;
         }
-        if ff_lt(cursor, next.xy) {
-            weights += segment_weights(cursor, next.xy);
-        }
-        cursor = ff_max(cursor, next.zw);
-        previous = next;
-        have_previous = true;
-    }
-    if ff_lt(cursor, c.zw) {
-        weights += segment_weights(cursor, c.zw);
+        cursor = next;
     }
     return weights;
 }
@@ -274,8 +287,8 @@ fn main(
     }
     // This part's slab along the major axis.
     let x_major = abs(dx.x) >= abs(dy.x);
-    let slab_lo = i32(part * GPU_TILE_SIZE);
-    let slab_hi = slab_lo + i32(GPU_TILE_SIZE) - 1;
+    let slab_lo = i32(part * r.tile_size);
+    let slab_hi = slab_lo + i32(r.tile_size) - 1;
     if x_major {
         if !clip_parameter(va.x, dx, f32(slab_lo), f32(slab_hi + 1), &s) {
             return;
@@ -303,6 +316,14 @@ fn main(
     }
     // Margin of the occluder box filter: far above the f32 error of the boxes.
     let margin = 1e-3 * (1.0 + max(max(abs(va.x), abs(va.y)), max(abs(vb.x), abs(vb.y))) * 1e-3);
+    // The part's segment and its box: the occluder intervals of a tile are computed once over it
+    // (`fill_cache`) and clipped to each pixel of the part in that tile.
+    let part_bb = vec4<f32>(
+        min(va + s.x * d, va + s.z * d) - margin,
+        max(va + s.x * d, va + s.z * d) + margin,
+    );
+    var cache_tile = 0xffffffffu;
+    var cache_count = 0u;
     for (var row = row_lo; row <= row_hi && tick(); row++) {
         var rs = s;
         if !clip_parameter(va.y, dy, f32(row), f32(row) + 1.0, &rs) {
@@ -329,15 +350,30 @@ fn main(
                 continue;
             }
             segments++;
-            let tile = vw.tile_offset + (u32(row) / GPU_TILE_SIZE) * r.tiles_x + u32(col) / GPU_TILE_SIZE;
+            let tile = vw.tile_offset + (u32(row) / r.tile_size) * r.tiles_x + u32(col) / r.tile_size;
             var lists = large;
             lists.tile_start = min(bins[tile], frame.params.bin_capacity);
             lists.tile_count = min(bins[tile + 1u], frame.params.bin_capacity) - lists.tile_start;
             lists.tile_start += frame.params.bin_list_offset;
-            let p0 = va + c.x * d;
-            let p1 = va + c.z * d;
-            let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
-            let k = visible_weights(edge, lists, c, bb);
+            if tile != cache_tile {
+                cache_tile = tile;
+                cache_count = fill_cache(edge, lists, s, part_bb);
+            }
+            var k = vec2<f32>(0.0);
+            if cache_count <= CACHE {
+                k = visible_weights(edge, lists, c, part_bb, cache_count, true);
+            } else if cache_count != HIDDEN {
+                // More intervals than the cache holds: this pixel's own, recomputed as needed.
+                let p0 = va + c.x * d;
+                let p1 = va + c.z * d;
+                let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
+                let n = fill_cache(edge, lists, c, bb);
+                if n <= CACHE {
+                    k = visible_weights(edge, lists, c, bb, n, true);
+                } else if n != HIDDEN {
+                    k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count, false);
+                }
+            }
             if k.x != 0.0 || k.y != 0.0 {
                 visible++;
             }

@@ -27,7 +27,7 @@ pub use camera::{Camera, Projection, ViewParams};
 pub use error::{Error, Result};
 pub use image::Image;
 pub use mesh::{Mesh, Topology};
-pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView};
+pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
 
 /// Largest |pixel coordinate| a projected vertex may have; farther vertices are treated like
 /// vertices behind the camera (their triangles are culled). Keeps fixed-point coverage exact in

@@ -7,11 +7,15 @@ use glam::{Vec2, Vec3};
 use crate::camera::{Camera, ViewParams};
 use crate::cpu;
 use crate::cpu::edge_grad::SegmentStats;
-use crate::gpu::backend::{GpuBackend, GpuFrame, Input};
+use crate::gpu::backend::{GpuBackend, GpuFrame, Input, Readback};
 use crate::gpu::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions};
 use crate::layout::{RasterParams, ScreenVertex};
 use crate::mesh::{Mesh, Topology};
 use crate::{Error, Image, Result};
+
+mod step;
+
+pub use step::{Step, Targets};
 
 /// How pixels are formed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -191,7 +195,7 @@ impl Renderer {
                 let options = if from_env.adapter != AdapterChoice::Best {
                     Some(from_env)
                 } else if hardware_gpu_available() {
-                    Some(GpuOptions::default())
+                    Some(GpuOptions { adapter: AdapterChoice::Best, ..from_env })
                 } else {
                     renderer.note = Some("no hardware GPU".into());
                     None
@@ -244,16 +248,10 @@ impl Renderer {
 
     /// Renders `mesh` from each camera. Images may differ in size per camera.
     pub fn render(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
-        let mut views = Vec::with_capacity(cameras.len());
-        let mut params = Vec::with_capacity(cameras.len());
-        for camera in cameras {
-            camera.validate()?;
-            views.push(camera.params());
-            params.push(self.raster_params(camera.width, camera.height)?);
-        }
+        let (views, params) = step::world_views(&self.settings, cameras)?;
         if let Engine::Gpu(gpu) = &mut self.engine {
             let input = Input::World { positions: mesh.positions(), cameras: &views };
-            let out = gpu.forward(mesh.topology(), &params, input)?;
+            let out = gpu.forward(mesh.topology(), &params, input, Readback::Images)?;
             let source = Source::World { positions: mesh.positions().to_vec(), views };
             return gpu_frame(mesh.topology().clone(), params, out, source, Vec::new());
         }
@@ -298,7 +296,7 @@ impl Renderer {
         }
         if let Engine::Gpu(gpu) = &mut self.engine {
             let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) = screens.into_iter().unzip();
-            let out = gpu.forward(topology, &params, Input::Screen(&screens))?;
+            let out = gpu.forward(topology, &params, Input::Screen(&screens), Readback::Images)?;
             return gpu_frame(topology.clone(), params, out, Source::Screen, screens);
         }
         Ok(self.forward(topology.clone(), screens, Source::Screen))
@@ -363,7 +361,7 @@ impl Renderer {
                     Source::World { positions, views } => Input::World { positions, cameras: views },
                 };
                 let d: Vec<&[f32]> = d_images.iter().map(|i| i.data()).collect();
-                let (out, stats) = gpu.backward(*gpu_frame, &frame.topology, params, input, &d)?;
+                let (out, stats) = gpu.backward(*gpu_frame, &frame.topology, params, input, Some(&d))?;
                 self.last_backward = stats;
                 Ok(out)
             }
@@ -385,22 +383,38 @@ impl Renderer {
             ));
         };
         let screen_grads = self.backward_screen(frame, d_images)?;
-        let mut grads = vec![Vec3::ZERO; positions.len()];
-        for (view, g2) in views.iter().zip(&screen_grads) {
-            for ((g, p), d) in grads.iter_mut().zip(positions).zip(g2) {
-                if *d != Vec2::ZERO {
-                    let [jx, jy] = view.jacobian(*p);
-                    *g += jx * d.x + jy * d.y;
-                }
-            }
-        }
-        Ok(grads)
+        Ok(chain_to_3d(positions, views, &screen_grads))
     }
 
     /// Segment counts of the last backward, per view.
     pub fn last_backward_stats(&self) -> &[BackwardStats] {
         &self.last_backward
     }
+
+    /// GPU time of every stage of the last forward and the backward after it, in order. Empty on
+    /// the CPU backend, and unless profiling was asked for ([`GpuOptions::profile`],
+    /// `DIFFSIL_GPU_PROFILE=1`) on an adapter with timestamp queries.
+    pub fn gpu_stage_timings(&self) -> &[crate::gpu::StageTiming] {
+        match &self.engine {
+            Engine::Cpu => &[],
+            Engine::Gpu(gpu) => gpu.stage_timings(),
+        }
+    }
+}
+
+/// `∂L/∂(screen vertex)` per view → `∂L/∂(3D vertex)` through each view's projection Jacobian,
+/// summed over views (in view order).
+fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], screen_grads: &[Vec<Vec2>]) -> Vec<Vec3> {
+    let mut grads = vec![Vec3::ZERO; positions.len()];
+    for (view, g2) in views.iter().zip(screen_grads) {
+        for ((g, p), d) in grads.iter_mut().zip(positions).zip(g2) {
+            if *d != Vec2::ZERO {
+                let [jx, jy] = view.jacobian(*p);
+                *g += jx * d.x + jy * d.y;
+            }
+        }
+    }
+    grads
 }
 
 /// A [`Frame`] from a GPU forward.
@@ -418,7 +432,7 @@ fn gpu_frame(
         stats.push(RenderStats {
             culled_triangles: out.culled[k],
             candidate_edges: out.candidates[k],
-            tile_size: crate::gpu::backend::TILE_SIZE,
+            tile_size: out.tile_sizes[k],
         });
     }
     Ok(Frame { images, stats, topology, source, state: FrameState::Gpu { frame: out.frame, params, screens } })

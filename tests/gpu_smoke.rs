@@ -99,7 +99,7 @@ fn readback_is_reusable_and_checks_sizes() {
 
 #[test]
 fn unknown_adapter_name_is_no_adapter() {
-    let options = GpuOptions { adapter: AdapterChoice::Name("no-such-adapter-3f9c".into()) };
+    let options = GpuOptions { adapter: AdapterChoice::Name("no-such-adapter-3f9c".into()), ..Default::default() };
     match GpuContext::new(&options) {
         Err(error @ Error::NoAdapter(_)) => {
             let message = error.to_string();

@@ -434,7 +434,7 @@ fn bin_capacity_grows_and_triangles_larger_than_the_screen() {
     compare_world("huge triangle", &mut gpu, &mut cpu, &scene, &mut rng, &mut m);
 }
 
-/// Many triangles in one 16×16-pixel tile: correct on a real GPU; on llvmpipe, which ends every
+/// Many triangles in one small area (1-pixel tiles with thousands of triangles each): correct on a real GPU; on llvmpipe, which ends every
 /// loop of a shader invocation after 65,535 iterations in total, either correct or an explicit
 /// `Error::GpuLimit` — never a silently truncated result.
 #[test]

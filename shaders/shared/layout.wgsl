@@ -16,8 +16,8 @@ struct ScreenVertex {
     pad: u32,
 }
 
-// Per-view raster constants (see `RasterParams` in src/layout.rs). On the GPU `tile_size` is always
-// `GPU_TILE_SIZE`.
+// Per-view raster constants (see `RasterParams` in src/layout.rs). On the GPU `tile_size` is a
+// power of two from 1 to 16 (`stages::gpu_tile_size`).
 struct RasterParams {
     width: u32,
     height: u32,
@@ -89,7 +89,8 @@ struct FrameParams {
     // Index of the first large-triangle list in the `bins` buffer (view v's list starts at
     // large_offset + v · triangle_count; see shared/tiles.wgsl).
     large_offset: u32,
-    // Parts per candidate edge in `edge_grad` (ceil(largest image side / GPU_TILE_SIZE)).
+    // Parts per candidate edge in `edge_grad` (the largest ceil(image side / tile_size) of the
+    // views: a part is one tile-wide slab along the edge's major axis).
     parts: u32,
     // Loop iterations one SIMD batch of invocations may run before the stage stops and reports
     // it: 60,000 on llvmpipe (which silently ends loops after 65,535), 0 (no limit) elsewhere.
@@ -107,10 +108,6 @@ struct Frame {
     params: FrameParams,
     views: array<GpuView, MAX_VIEWS>,
 }
-
-// Tile side in pixels on the GPU (one workgroup of GPU_TILE_SIZE² invocations per tile in
-// `coverage`). Coverage and visibility do not depend on the tile size (see src/gpu/stages.rs).
-const GPU_TILE_SIZE: u32 = 16u;
 
 // Layout of the `status` buffer (u32 counters, atomic where several invocations write; read back
 // with the image or the gradients; see `diffsil::gpu::stages::status`):

@@ -1,5 +1,5 @@
 // The tile range of a triangle, shared by `bin_count` and `bin_fill`: the GPU twin of
-// `cpu::bin::triangle_tiles` (src/cpu/bin.rs) with the GPU's tile size.
+// `cpu::bin::triangle_tiles` (src/cpu/bin.rs) with the view's GPU tile size.
 //
 // A triangle is listed in every tile its snapped bounding box, grown by one fixed-point unit on
 // each side, overlaps (conservative for the float geometry too, which `edge_grad` relies on).
@@ -36,7 +36,7 @@ fn triangle_tiles(view: u32, tri: vec3<u32>, s0: ScreenVertex, s1: ScreenVertex,
     if x_hi < 0 || x_lo >= i32(r.width) || y_hi < 0 || y_lo >= i32(r.height) {
         return TileRange(none, false);
     }
-    let t = i32(GPU_TILE_SIZE);
+    let t = i32(r.tile_size);
     return TileRange(
         vec4<i32>(
             max(x_lo, 0) / t,

@@ -31,10 +31,9 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::stages::{
-    status, FrameLayout, FrameParams, FrameUniform, GpuView, GPU_TILE_SIZE, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
-    MAX_VIEWS,
+    status, FrameLayout, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
 };
-use super::{AdapterReport, GpuContext};
+use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
 use crate::camera::ViewParams;
 use crate::cpu::edge_grad::SegmentStats;
 use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
@@ -52,6 +51,17 @@ pub(crate) enum Input<'a> {
     World { positions: &'a [Vec3], cameras: &'a [ViewParams] },
 }
 
+/// What a forward reads back.
+#[derive(Clone, Copy)]
+pub(crate) enum Readback<'a> {
+    /// The images.
+    Images,
+    /// Not the images: the squared error against these targets (one per view, row-major, each of
+    /// its view's size), whose gradient stays on the GPU for the backward. `id` identifies the
+    /// targets' contents: they are uploaded again only when it changes.
+    Loss { id: u64, targets: &'a [&'a [f32]] },
+}
+
 impl Input<'_> {
     fn is_world(&self) -> bool {
         matches!(self, Input::World { .. })
@@ -60,12 +70,16 @@ impl Input<'_> {
 
 /// What a forward returns.
 pub(crate) struct ForwardOutput {
-    /// One image per view, row-major.
+    /// One image per view, row-major (empty for [`Readback::Loss`]).
     pub images: Vec<Vec<f32>>,
+    /// Squared error per view (for [`Readback::Loss`]; empty otherwise).
+    pub losses: Vec<f64>,
     /// Culled triangles per view.
     pub culled: Vec<u32>,
     /// Candidate edges per view.
     pub candidates: Vec<u32>,
+    /// GPU tile side per view.
+    pub tile_sizes: Vec<u32>,
     /// Identifies the GPU state this forward left behind (see [`GpuFrame`]).
     pub frame: GpuFrame,
 }
@@ -89,6 +103,7 @@ struct Pipelines {
     edge_grad: wgpu::ComputePipeline,
     edge_sum: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
+    loss: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
@@ -105,6 +120,7 @@ impl Pipelines {
             edge_grad: ctx.compute_pipeline("edge_grad.wgsl", "main")?,
             edge_sum: ctx.compute_pipeline("edge_sum.wgsl", "main")?,
             gather: ctx.compute_pipeline("gather.wgsl", "main")?,
+            loss: ctx.compute_pipeline("loss.wgsl", "main")?,
         })
     }
 }
@@ -168,6 +184,16 @@ struct Partials {
     edge_sum: wgpu::BindGroup,
 }
 
+/// The targets of [`Readback::Loss`], the per-tile sums and the `loss` bind group (made on the
+/// first loss forward of a frame shape).
+struct LossBuffers {
+    target: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    /// Which targets `target` holds (0: none yet).
+    id: u64,
+}
+
 /// Per-shape buffers and bind groups.
 struct FrameBuffers {
     shape: Shape,
@@ -187,6 +213,7 @@ struct FrameBuffers {
     classes: wgpu::Buffer,
     slots: wgpu::Buffer,
     partials: Option<Partials>,
+    loss: Option<LossBuffers>,
     /// Candidate edges of all views in the last forward (the backward's work items are
     /// candidates × parts).
     candidates: u32,
@@ -224,13 +251,30 @@ pub(crate) struct GpuBackend {
     /// Generation of the forward whose state the frame buffers hold (0: none).
     generation: u64,
     last_generation: u64,
+    /// Per-stage timestamps, when profiling (see `super::profile`).
+    timer: Option<StageTimer>,
+    /// The stage timings of the last forward and backward.
+    timings: Vec<StageTiming>,
+}
+
+/// Begins compute pass `label`, with timestamps when `timer` is on.
+fn stage_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    timer: &mut Option<StageTimer>,
+    label: &'static str,
+) -> wgpu::ComputePass<'e> {
+    let timestamp_writes = timer.as_mut().and_then(|t| t.writes(label));
+    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes })
 }
 
 impl GpuBackend {
     /// Compiles the pipelines on `ctx`.
     pub fn new(ctx: GpuContext) -> Result<GpuBackend> {
         let pipelines = Pipelines::new(&ctx)?;
+        let timer = StageTimer::new(&ctx, 16);
         Ok(GpuBackend {
+            timer,
+            timings: Vec::new(),
             ctx,
             id: NEXT_BACKEND_ID.fetch_add(1, Ordering::Relaxed),
             pipelines,
@@ -246,6 +290,11 @@ impl GpuBackend {
         self.ctx.adapter()
     }
 
+    /// Stage timings of the last forward and backward (empty unless profiling).
+    pub fn stage_timings(&self) -> &[StageTiming] {
+        &self.timings
+    }
+
     /// Whether the adapter is Mesa's llvmpipe (lavapipe), whose shaders end every loop of an
     /// invocation after [`LLVMPIPE_LOOP_LIMIT`] iterations in total.
     fn loop_limited(&self) -> bool {
@@ -259,7 +308,7 @@ impl GpuBackend {
         let max = LLVMPIPE_LOOP_BUDGET;
         if self.loop_limited() && most > max {
             return Err(Error::GpuLimit {
-                limit: "loop iterations per shader invocation on llvmpipe (too many triangles in one 16x16-pixel tile)",
+                limit: "loop iterations per shader invocation on llvmpipe (too many triangles in one tile)",
                 needed: most as u64,
                 max: max as u64,
             });
@@ -308,6 +357,34 @@ impl GpuBackend {
         Ok(())
     }
 
+    /// Makes the loss buffers exist and hold `targets` (uploaded when `id` changed).
+    fn ensure_loss(&mut self, id: u64, targets: &[&[f32]]) -> Result<()> {
+        let ctx = &self.ctx;
+        let f = self.frame.as_mut().expect("frame buffers built");
+        if f.loss.is_none() {
+            let params = f.uniform.params;
+            let target = ctx.storage_buffer("diffsil targets", params.total_pixels as u64 * 4)?;
+            let partials = ctx.storage_buffer("diffsil loss per tile", params.total_tiles as u64 * 4)?;
+            let group = ctx.bind_entries(
+                "loss",
+                &self.pipelines.loss,
+                0,
+                &[(0, &f.uniform_buffer), (1, &f.image), (2, &target), (3, &f.d_image), (4, &partials)],
+            )?;
+            f.loss = Some(LossBuffers { target, partials, group, id: 0 });
+        }
+        let loss = f.loss.as_mut().expect("made above");
+        if loss.id != id {
+            for (view, target) in f.uniform.views.iter().zip(targets) {
+                if !target.is_empty() {
+                    ctx.queue().write_buffer(&loss.target, view.pixel_offset as u64 * 4, bytemuck::cast_slice(target));
+                }
+            }
+            loss.id = id;
+        }
+        Ok(())
+    }
+
     fn ensure_topology(&mut self, topology: &Arc<Topology>) -> Result<()> {
         if self.topology.as_ref().is_some_and(|t| Arc::ptr_eq(&t.topology, topology)) {
             return Ok(());
@@ -325,13 +402,16 @@ impl GpuBackend {
         topology: &Arc<Topology>,
         params: &[RasterParams],
         input: Input<'_>,
+        readback: Readback<'_>,
     ) -> Result<ForwardOutput> {
         let n = params.len();
         if n == 0 {
             return Ok(ForwardOutput {
                 images: Vec::new(),
+                losses: Vec::new(),
                 culled: Vec::new(),
                 candidates: Vec::new(),
+                tile_sizes: Vec::new(),
                 frame: GpuFrame { backend: self.id, generation: 0 },
             });
         }
@@ -345,7 +425,7 @@ impl GpuBackend {
             supersample: params[0].supersample,
             world: input.is_world(),
         };
-        let layout = FrameLayout::new(params);
+        let layout = FrameLayout::new(params, topology.triangles().len());
         if self.frame.as_ref().is_none_or(|f| f.shape != shape) {
             self.frame = None;
             self.generation = 0;
@@ -357,7 +437,10 @@ impl GpuBackend {
             let frame = self.frame.as_mut().expect("built above");
             // Settings (inside/outside) may change between frames of one shape.
             frame.uniform.views[..n].copy_from_slice(&layout.views);
-            let (images, counters) = self.run_forward(input)?;
+            if let Readback::Loss { id, targets } = readback {
+                self.ensure_loss(id, targets)?;
+            }
+            let (images, losses, counters) = self.run_forward(input, readback)?;
             let frame = self.frame.as_ref().expect("built above");
             if counters[status::OVERFLOW] != 0 {
                 return Err(Error::GpuLimit { limit: "bin entries (u32)", needed: u64::MAX, max: u32::MAX as u64 });
@@ -378,8 +461,10 @@ impl GpuBackend {
             let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
             return Ok(ForwardOutput {
                 images,
+                losses,
                 culled: per_view(status::CULLED),
                 candidates: per_view(status::CANDIDATES),
+                tile_sizes: layout.views.iter().map(|v| v.raster.tile_size).collect(),
                 frame: GpuFrame { backend: self.id, generation: self.generation },
             });
         }
@@ -405,8 +490,12 @@ impl GpuBackend {
         let bin_capacity = check_index(capacity)?;
         check_index(layout.total_tiles + 1 + capacity + large_lists)?;
         check_index(n * (3 * edges + triangles))?;
-        let max_side = layout.views.iter().map(|v| v.raster.width.max(v.raster.height)).max().unwrap_or(1);
-        let parts = max_side.div_ceil(GPU_TILE_SIZE);
+        let parts = layout
+            .views
+            .iter()
+            .map(|v| v.raster.width.max(v.raster.height).div_ceil(v.raster.tile_size))
+            .max()
+            .unwrap_or(1);
         if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
             return Err(Error::GpuLimit {
                 limit: "tiles per frame on llvmpipe (65,535 loop iterations per invocation)",
@@ -535,14 +624,16 @@ impl GpuBackend {
             classes,
             slots,
             partials: None,
+            loss: None,
             candidates: 0,
             _internal: vec![masks],
         })
     }
 
-    /// Uploads the inputs, records and submits the forward, and reads back the images and the
-    /// status counters.
-    fn run_forward(&self, input: Input<'_>) -> Result<(Vec<Vec<f32>>, Vec<u32>)> {
+    /// Uploads the inputs, records and submits the forward, and reads back the status counters
+    /// and either the images or the per-view losses.
+    #[allow(clippy::type_complexity)]
+    fn run_forward(&mut self, input: Input<'_>, readback: Readback<'_>) -> Result<(Vec<Vec<f32>>, Vec<f64>, Vec<u32>)> {
         let ctx = &self.ctx;
         let queue = ctx.queue();
         let f = self.frame.as_ref().expect("frame buffers built");
@@ -572,53 +663,122 @@ impl GpuBackend {
 
         let p = &self.pipelines;
         let g = &f.groups;
+        let mut timer = self.timer.take();
+        if let Some(t) = &mut timer {
+            t.clear();
+        }
         let mut encoder = ctx.encoder("diffsil forward");
         encoder.clear_buffer(&f.counts, 0, None);
         encoder.clear_buffer(&f.status, 0, None);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("diffsil forward"),
-                timestamp_writes: None,
-            });
+        let per_triangle = check_index(n * params.triangle_count as u64)?;
+        let recorded = (|| -> Result<()> {
             if let Some(group) = &g.project {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "project");
                 pass.set_pipeline(&p.project);
                 pass.set_bind_group(0, group, &[]);
                 ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
             }
-            let per_triangle = check_index(n * params.triangle_count as u64)?;
-            pass.set_pipeline(&p.bin_count);
-            pass.set_bind_group(0, &g.bin_count, &[]);
-            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            pass.set_pipeline(&p.scan);
-            pass.set_bind_group(0, &g.scan, &[]);
-            pass.dispatch_workgroups(1, 1, 1);
-            pass.set_pipeline(&p.bin_fill);
-            pass.set_bind_group(0, &g.bin_fill, &[]);
-            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            pass.set_pipeline(&p.coverage);
-            pass.set_bind_group(0, &g.coverage, &[]);
-            let grid = super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
-            if grid[0] > 0 {
-                pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "bin_count");
+                pass.set_pipeline(&p.bin_count);
+                pass.set_bind_group(0, &g.bin_count, &[]);
+                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
             }
-            pass.set_pipeline(&p.resolve);
-            pass.set_bind_group(0, &g.resolve, &[]);
-            ctx.dispatch_1d(&mut pass, params.total_pixels, 64)?;
-            pass.set_pipeline(&p.orient);
-            pass.set_bind_group(0, &g.orient, &[]);
-            ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            pass.set_pipeline(&p.edges);
-            pass.set_bind_group(0, &g.edges, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "scan");
+                pass.set_pipeline(&p.scan);
+                pass.set_bind_group(0, &g.scan, &[]);
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "bin_fill");
+                pass.set_pipeline(&p.bin_fill);
+                pass.set_bind_group(0, &g.bin_fill, &[]);
+                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "coverage");
+                pass.set_pipeline(&p.coverage);
+                pass.set_bind_group(0, &g.coverage, &[]);
+                let grid =
+                    super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
+                if grid[0] > 0 {
+                    pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
+                }
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "resolve");
+                pass.set_pipeline(&p.resolve);
+                pass.set_bind_group(0, &g.resolve, &[]);
+                ctx.dispatch_1d(&mut pass, params.total_pixels, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "orient");
+                pass.set_pipeline(&p.orient);
+                pass.set_bind_group(0, &g.orient, &[]);
+                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "edges");
+                pass.set_pipeline(&p.edges);
+                pass.set_bind_group(0, &g.edges, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
+            }
+            if let (Readback::Loss { .. }, Some(loss)) = (readback, &f.loss) {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "loss");
+                pass.set_pipeline(&p.loss);
+                pass.set_bind_group(0, &loss.group, &[]);
+                let grid =
+                    super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
+                if grid[0] > 0 {
+                    pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
+                }
+            }
+            Ok(())
+        })();
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
         }
-        let image_bytes = params.total_pixels as u64 * 4;
+        if let Err(e) = recorded {
+            self.timer = timer;
+            return Err(e);
+        }
+        // The staging buffer gets the images (or the per-tile losses), then the status counters.
+        let loss = match readback {
+            Readback::Loss { .. } => f.loss.as_ref(),
+            Readback::Images => None,
+        };
+        let data_bytes = match loss {
+            Some(_) => params.total_tiles as u64 * 4,
+            None => params.total_pixels as u64 * 4,
+        };
         let status_bytes = status::len(n as usize) as u64 * 4;
-        encoder.copy_buffer_to_buffer(&f.image, 0, &f.staging, 0, image_bytes);
-        encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, image_bytes, status_bytes);
-        ctx.submit(encoder)?;
-        let bytes = ctx.read_staging(&f.staging, image_bytes + status_bytes)?;
-        let pixels: &[f32] = bytemuck::cast_slice(&bytes[..image_bytes as usize]);
-        let counters: Vec<u32> = bytemuck::cast_slice(&bytes[image_bytes as usize..]).to_vec();
+        match loss {
+            Some(loss) => encoder.copy_buffer_to_buffer(&loss.partials, 0, &f.staging, 0, data_bytes),
+            None => encoder.copy_buffer_to_buffer(&f.image, 0, &f.staging, 0, data_bytes),
+        }
+        encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, data_bytes, status_bytes);
+        let read = ctx.submit(encoder).and_then(|_| ctx.read_staging(&f.staging, data_bytes + status_bytes));
+        self.timings = match (&timer, &read) {
+            (Some(t), Ok(_)) => t.read(ctx)?,
+            _ => Vec::new(),
+        };
+        self.timer = timer;
+        let bytes = read?;
+        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[data_bytes as usize..]);
+        if loss.is_some() {
+            let tiles: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes[..data_bytes as usize]);
+            let losses = f
+                .views()
+                .iter()
+                .map(|v| {
+                    let start = v.tile_offset as usize;
+                    tiles[start..start + v.raster.tile_count()].iter().map(|&x| f64::from(x)).sum()
+                })
+                .collect();
+            return Ok((Vec::new(), losses, counters));
+        }
+        let pixels: &[f32] = bytemuck::cast_slice(&bytes[..data_bytes as usize]);
         let images = f
             .views()
             .iter()
@@ -627,7 +787,7 @@ impl GpuBackend {
                 pixels[start..start + v.raster.pixel_count()].to_vec()
             })
             .collect();
-        Ok((images, counters))
+        Ok((images, Vec::new(), counters))
     }
 
     /// The backward of all views in one submission: `∂L/∂I` per view → `∂L/∂(screen vertex)` per
@@ -639,7 +799,7 @@ impl GpuBackend {
         topology: &Arc<Topology>,
         params: &[RasterParams],
         input: Input<'_>,
-        d_images: &[&[f32]],
+        d_images: Option<&[&[f32]]>,
     ) -> Result<(Vec<Vec<Vec2>>, Vec<SegmentStats>)> {
         let n = params.len();
         if n == 0 {
@@ -647,7 +807,12 @@ impl GpuBackend {
         }
         let current = frame.backend == self.id && frame.generation != 0 && frame.generation == self.generation;
         if !current {
-            self.forward(topology, params, input)?;
+            if d_images.is_none() {
+                return Err(Error::InvalidFrame(
+                    "the GPU no longer holds this frame's loss gradient (another forward ran since)".into(),
+                ));
+            }
+            self.forward(topology, params, input, Readback::Images)?;
         }
         self.ensure_partials()?;
         let ctx = &self.ctx;
@@ -655,7 +820,8 @@ impl GpuBackend {
         let f = self.frame.as_ref().expect("a forward ran");
         let partials = f.partials.as_ref().expect("ensured above");
         let fp = *f.params();
-        for (view, d) in f.views().iter().zip(d_images) {
+        // `None`: ∂L/∂I is already on the GPU (written by the `loss` stage).
+        for (view, d) in f.views().iter().zip(d_images.unwrap_or_default()) {
             if !d.is_empty() {
                 queue.write_buffer(&f.d_image, view.pixel_offset as u64 * 4, bytemuck::cast_slice(d));
             }
@@ -663,26 +829,43 @@ impl GpuBackend {
         let (views, vertices) = (fp.view_count as u64, fp.vertex_count as u64);
         let p = &self.pipelines;
         let g = &f.groups;
+        let mut timer = self.timer.take();
+        if let Some(t) = &mut timer {
+            t.clear();
+        }
         let mut encoder = ctx.encoder("diffsil backward");
         // Clear the backward's counters; the forward's (list lengths, candidates) stay.
         encoder.clear_buffer(&f.status, status::MAX_ITERATIONS as u64 * 4, Some(4));
         for v in 0..n {
             encoder.clear_buffer(&f.status, status::index(v, status::SEGMENTS) as u64 * 4, Some(8));
         }
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("diffsil backward"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&p.edge_grad);
-            pass.set_bind_group(0, &partials.edge_grad, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
-            pass.set_pipeline(&p.edge_sum);
-            pass.set_bind_group(0, &partials.edge_sum, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
-            pass.set_pipeline(&p.gather);
-            pass.set_bind_group(0, &g.gather, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
+        let recorded = (|| -> Result<()> {
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "edge_grad");
+                pass.set_pipeline(&p.edge_grad);
+                pass.set_bind_group(0, &partials.edge_grad, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "edge_sum");
+                pass.set_pipeline(&p.edge_sum);
+                pass.set_bind_group(0, &partials.edge_sum, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "gather");
+                pass.set_pipeline(&p.gather);
+                pass.set_bind_group(0, &g.gather, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
+            }
+            Ok(())
+        })();
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
+        }
+        if let Err(e) = recorded {
+            self.timer = timer;
+            return Err(e);
         }
         let grad_bytes = views * vertices * 8;
         let status_bytes = status::len(n) as u64 * 4;
@@ -690,8 +873,13 @@ impl GpuBackend {
             encoder.copy_buffer_to_buffer(&f.grads, 0, &f.staging, 0, grad_bytes);
         }
         encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, grad_bytes, status_bytes);
-        ctx.submit(encoder)?;
-        let bytes = ctx.read_staging(&f.staging, grad_bytes + status_bytes)?;
+        let read = ctx.submit(encoder).and_then(|_| ctx.read_staging(&f.staging, grad_bytes + status_bytes));
+        if let (Some(t), Ok(_)) = (&timer, &read) {
+            let backward = t.read(ctx)?;
+            self.timings.extend(backward);
+        }
+        self.timer = timer;
+        let bytes = read?;
         let grads: &[Vec2] = bytemuck::cast_slice(&bytes[..grad_bytes as usize]);
         let counters: &[u32] = bytemuck::cast_slice(&bytes[grad_bytes as usize..]);
         self.check_iterations(counters[status::MAX_ITERATIONS])?;
@@ -707,6 +895,3 @@ impl GpuBackend {
         Ok((out, stats))
     }
 }
-
-/// The tile size the GPU reports in [`crate::RenderStats::tile_size`].
-pub(crate) const TILE_SIZE: u32 = GPU_TILE_SIZE;

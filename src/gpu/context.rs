@@ -37,6 +37,9 @@ impl fmt::Display for AdapterChoice {
 pub struct GpuOptions {
     /// Which adapter to use.
     pub adapter: AdapterChoice,
+    /// Time every stage on the GPU with timestamp queries (when the adapter supports them; see
+    /// [`crate::Renderer::gpu_stage_timings`]). Costs an extra wait per submission.
+    pub profile: bool,
 }
 
 impl GpuOptions {
@@ -48,12 +51,14 @@ impl GpuOptions {
     /// [`AdapterChoice::Best`]. Independently, wgpu's own `WGPU_BACKEND` (a comma list such as
     /// `vulkan,gl`) restricts the backends that are looked at in the first place: it is read by
     /// [`GpuContext::new`] and [`hardware_gpu_available`], whatever these options say.
+    /// `DIFFSIL_GPU_PROFILE=1` turns on [`GpuOptions::profile`].
     pub fn from_env() -> Self {
         let adapter = match std::env::var("DIFFSIL_ADAPTER") {
             Ok(value) => parse_adapter_choice(&value),
             Err(_) => AdapterChoice::Best,
         };
-        GpuOptions { adapter }
+        let profile = std::env::var("DIFFSIL_GPU_PROFILE").is_ok_and(|v| !v.is_empty() && v != "0");
+        GpuOptions { adapter, profile }
     }
 }
 
@@ -162,7 +167,8 @@ impl GpuContext {
     /// The device gets the WebGPU default limits (or the adapter's, where it has less), except
     /// `max_storage_buffer_binding_size`, `max_buffer_size` and the number of storage buffers
     /// per shader stage, which are raised to what the adapter supports so that large meshes fit.
-    /// No optional feature is requested. Returns [`Error::NoAdapter`] (listing the adapters
+    /// No optional feature is requested, except `TIMESTAMP_QUERY` when [`GpuOptions::profile`] is
+    /// set and the adapter has it. Returns [`Error::NoAdapter`] (listing the adapters
     /// that were seen) when nothing matches.
     pub fn new(options: &GpuOptions) -> Result<GpuContext> {
         pollster::block_on(Self::new_async(options))
@@ -186,7 +192,11 @@ impl GpuContext {
 
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("diffsil"),
-            required_features: wgpu::Features::empty(),
+            required_features: if options.profile {
+                adapter.features() & wgpu::Features::TIMESTAMP_QUERY
+            } else {
+                wgpu::Features::empty()
+            },
             required_limits: limits,
             ..Default::default()
         };

@@ -33,7 +33,7 @@
 //! Mesa's software rasterizer ends all loops of a shader invocation after 65,535 iterations in
 //! total, silently. The stages keep their invocations short (large triangles are listed per view,
 //! long edges are cut into 16-pixel parts) and count their iterations; a frame that would exceed
-//! the limit there (thousands of triangles in one 16×16-pixel tile) is an
+//! the limit there (thousands of triangles in one tile) is an
 //! [`crate::Error::GpuLimit`] on llvmpipe, never a wrong result. Hardware GPUs have no such limit.
 //!
 //! ## 1D dispatches beyond 65,535 workgroups
@@ -46,12 +46,15 @@
 
 pub(crate) mod backend;
 mod context;
+mod profile;
 pub mod shader;
 pub mod stages;
 
 pub use context::{
     dispatch_1d_with_limit, hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions, Readback,
 };
+pub(crate) use profile::StageTimer;
+pub use profile::StageTiming;
 
 use crate::{Error, Result};
 

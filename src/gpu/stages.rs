@@ -20,19 +20,39 @@
 //!
 //! ## Tile size
 //!
-//! The GPU always bins into [`GPU_TILE_SIZE`]² pixel tiles, one `coverage` workgroup of 256
-//! invocations per tile, whatever tile size the CPU picks for its own threads
-//! (`cpu::bin::choose_tile_size`). Results do not depend on the tile size: coverage tests every
-//! sample against every triangle whose (conservative) box touches the sample's tile, and ORs the
-//! bits; visibility in `edge_grad` intersects the segment with every triangle listed in the
-//! pixel's tile, and any triangle that can cover a point of the pixel is listed in every tile
-//! that contains the pixel. So GPU and CPU agree bit for bit on coverage, and the same
-//! triangles occlude the same segments. Only [`crate::RenderStats::tile_size`] differs.
+//! The GPU bins into square tiles of [`gpu_tile_size`] pixels per side, a power of two from 1 to
+//! [`MAX_GPU_TILE_SIZE`] picked per view from the triangle density, so that a tile holds a few
+//! dozen triangles at any resolution (a 16² image of a 70k-triangle mesh gets 1-pixel tiles, the
+//! same mesh at 1024² 8-pixel tiles). `coverage` runs one workgroup of 256 invocations per tile,
+//! `256 / tile_size²` lanes per pixel. Results do not depend on the tile size: coverage tests
+//! every sample against every triangle whose (conservative) box touches the sample's tile, and
+//! ORs the bits; visibility in `edge_grad` intersects the segment with every triangle listed in
+//! the pixel's tile, and any triangle that can cover a point of the pixel is listed in every tile
+//! that contains the pixel. So GPU and CPU agree bit for bit on coverage, and the same triangles
+//! occlude the same segments, whatever tile sizes either picks.
 
 use crate::layout::RasterParams;
 
-/// Tile side in pixels on the GPU (keep in sync with `GPU_TILE_SIZE` in `shaders/shared/layout.wgsl`).
-pub const GPU_TILE_SIZE: u32 = 16;
+/// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.
+pub const MAX_GPU_TILE_SIZE: u32 = 16;
+
+/// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
+/// workgroup).
+const MAX_TILES_PER_VIEW: u64 = 1 << 18;
+
+/// The GPU tile side for a view of `width` × `height` pixels of a mesh of `triangles` triangles:
+/// the power of two nearest to `sqrt(4 · width · height / triangles)`, from 1 to
+/// [`MAX_GPU_TILE_SIZE`], so a tile holds about 8 triangles' worth of area when the mesh fills the
+/// view (a few dozen where it is dense), and at most 2^18 tiles per view.
+pub fn gpu_tile_size(triangles: usize, width: u32, height: u32) -> u32 {
+    let area = width as f64 * height as f64;
+    let ideal = (4.0 * area / triangles.max(1) as f64).sqrt();
+    let mut size = if ideal <= 1.0 { 1 } else { 1u32 << (ideal.log2().round() as u32).min(4) };
+    while size < MAX_GPU_TILE_SIZE && width.div_ceil(size) as u64 * height.div_ceil(size) as u64 > MAX_TILES_PER_VIEW {
+        size *= 2;
+    }
+    size.clamp(1, MAX_GPU_TILE_SIZE)
+}
 
 /// Views per GPU frame: the size of the uniform array of views (keep in sync with `MAX_VIEWS`).
 pub const MAX_VIEWS: usize = 256;
@@ -41,7 +61,7 @@ pub const MAX_VIEWS: usize = 256;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuView {
-    /// Raster constants, with `tile_size` = [`GPU_TILE_SIZE`].
+    /// Raster constants, with the GPU's `tile_size` ([`gpu_tile_size`]).
     pub raster: RasterParams,
     /// First pixel of this view in the concatenated images (masks: times `words_per_pixel`).
     pub pixel_offset: u32,
@@ -78,7 +98,8 @@ pub struct FrameParams {
     /// Index of the first large-triangle list in the bins buffer (view `v`'s starts at
     /// `large_offset + v · triangle_count`).
     pub large_offset: u32,
-    /// Parts per candidate edge in `edge_grad`: `ceil(largest image side / GPU_TILE_SIZE)`.
+    /// Parts per candidate edge in `edge_grad`: the largest `ceil(image side / tile size)` of the
+    /// views (a part is one tile-wide slab along the edge's major axis).
     pub parts: u32,
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
     /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
@@ -157,13 +178,14 @@ pub struct FrameLayout {
 }
 
 impl FrameLayout {
-    /// Lays out views with these raster parameters (their tile size is set to [`GPU_TILE_SIZE`]).
-    pub fn new(params: &[RasterParams]) -> FrameLayout {
+    /// Lays out views with these raster parameters for a mesh of `triangles` triangles (their
+    /// tile size is set to [`gpu_tile_size`]).
+    pub fn new(params: &[RasterParams], triangles: usize) -> FrameLayout {
         let mut views = Vec::with_capacity(params.len());
         let (mut pixels, mut tiles) = (0u64, 0u64);
         for p in params {
             let mut raster = *p;
-            raster.set_tile_size(GPU_TILE_SIZE);
+            raster.set_tile_size(gpu_tile_size(triangles, p.width, p.height));
             views.push(GpuView {
                 raster,
                 pixel_offset: pixels.min(u32::MAX as u64) as u32,
@@ -196,12 +218,29 @@ mod tests {
     fn layout_concatenates_views() {
         let a = RasterParams::new(20, 18, 4, 1.0, 0.0).unwrap();
         let b = RasterParams::new(33, 1, 2, 1.0, 0.0).unwrap();
-        let layout = FrameLayout::new(&[a, b]);
+        let layout = FrameLayout::new(&[a, b], 1);
+        assert_eq!(layout.views[0].raster.tile_size, 16);
         assert_eq!(layout.views[0].raster.tiles_x, 2);
         assert_eq!(layout.views[0].raster.tiles_y, 2);
         assert_eq!(layout.views[1].pixel_offset, 360);
         assert_eq!(layout.views[1].tile_offset, 4);
         assert_eq!(layout.total_pixels, 393);
         assert_eq!(layout.total_tiles, 7);
+        let dense = FrameLayout::new(&[a, b], 10_000);
+        assert_eq!(dense.views[0].raster.tile_size, 1);
+        assert_eq!(dense.views[1].tile_offset, 360);
+        assert_eq!(dense.total_tiles, 393);
+    }
+
+    #[test]
+    fn tile_size_follows_triangle_density() {
+        assert_eq!(gpu_tile_size(69_451, 16, 16), 1);
+        assert_eq!(gpu_tile_size(69_451, 64, 64), 1);
+        assert_eq!(gpu_tile_size(69_451, 256, 256), 2);
+        assert_eq!(gpu_tile_size(69_451, 1024, 1024), 8);
+        assert_eq!(gpu_tile_size(2, 1024, 1024), 16);
+        assert_eq!(gpu_tile_size(0, 7, 3), 8);
+        // Huge images of dense meshes keep at most 2^18 tiles per view.
+        assert_eq!(gpu_tile_size(100_000_000, 4096, 4096), 8);
     }
 }

@@ -1,0 +1,132 @@
+//! One optimisation step in one call: render, squared error against fixed targets, backward to
+//! the 3D vertices. On the GPU backend the images and `∂L/∂I` never leave the device.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::Vec3;
+
+use super::{Engine, Renderer};
+use crate::gpu::backend::{Input, Readback};
+use crate::{loss, Camera, Error, Image, Mesh, RenderStats, Result};
+
+static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Target silhouettes for [`Renderer::squared_error_step`], one per view.
+///
+/// Make them once and reuse them for every step of a fit: the GPU backend uploads a set of
+/// targets the first time it sees it and keeps it on the device.
+#[derive(Clone, Debug)]
+pub struct Targets {
+    id: u64,
+    images: Vec<Image>,
+}
+
+impl Targets {
+    /// Targets from one image per view. A non-finite pixel is an [`Error::InvalidSettings`].
+    pub fn new(images: Vec<Image>) -> Result<Targets> {
+        for (view, image) in images.iter().enumerate() {
+            if let Some(p) = image.data().iter().position(|v| !v.is_finite()) {
+                return Err(Error::InvalidSettings(format!("target {view} has a non-finite value at pixel {p}")));
+            }
+        }
+        Ok(Targets { id: NEXT_TARGETS_ID.fetch_add(1, Ordering::Relaxed), images })
+    }
+
+    /// The target images.
+    pub fn images(&self) -> &[Image] {
+        &self.images
+    }
+}
+
+/// What [`Renderer::squared_error_step`] returns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// The loss `L = Σ_views Σ_pixels (I − T)²` (paper Eq. 18).
+    pub loss: f64,
+    /// Each view's share of the loss.
+    pub view_losses: Vec<f64>,
+    /// `∂L/∂(3D vertex)`, one per mesh vertex, summed over views.
+    pub gradient: Vec<Vec3>,
+    /// Per-view statistics of the forward.
+    pub stats: Vec<RenderStats>,
+}
+
+impl Renderer {
+    /// Renders `mesh` from each camera, takes the squared error of each image against its target
+    /// ([`loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
+    /// iteration of a silhouette fit.
+    ///
+    /// The result equals `render`, `loss::squared_error` per view and `backward` in sequence. On
+    /// the GPU backend it is faster: the loss and its gradient are computed on the device (the
+    /// `loss` stage) and only the vertex gradient and the per-tile loss sums come back, not the
+    /// images. The gradient there is the same as through `render`/`backward`; the loss value is
+    /// summed in f32 per tile before f64 across tiles (relative difference ~1e-6 from the CPU's
+    /// f64 sum). Use [`Renderer::render`] when you need the images.
+    ///
+    /// Errors: a target count other than the camera count ([`Error::ViewCountMismatch`]), a target
+    /// of another size than its camera's image ([`Error::SizeMismatch`]), and whatever
+    /// [`Renderer::render`] rejects.
+    pub fn squared_error_step(&mut self, mesh: &Mesh, cameras: &[Camera], targets: &Targets) -> Result<Step> {
+        if targets.images.len() != cameras.len() {
+            return Err(Error::ViewCountMismatch { what: "targets", views: cameras.len(), got: targets.images.len() });
+        }
+        for (camera, target) in cameras.iter().zip(&targets.images) {
+            target.expect_size("target", camera.width, camera.height)?;
+        }
+        if let Engine::Gpu(gpu) = &mut self.engine {
+            let (views, params) = world_views(&self.settings, cameras)?;
+            let data: Vec<&[f32]> = targets.images.iter().map(|i| i.data()).collect();
+            let input = Input::World { positions: mesh.positions(), cameras: &views };
+            let readback = Readback::Loss { id: targets.id, targets: &data };
+            let out = gpu.forward(mesh.topology(), &params, input, readback)?;
+            let (screen_grads, stats) = gpu.backward(out.frame, mesh.topology(), &params, input, None)?;
+            self.last_backward = stats;
+            let stats = params
+                .iter()
+                .enumerate()
+                .map(|(k, _)| RenderStats {
+                    culled_triangles: out.culled[k],
+                    candidate_edges: out.candidates[k],
+                    tile_size: out.tile_sizes[k],
+                })
+                .collect();
+            return Ok(Step {
+                loss: out.losses.iter().sum(),
+                view_losses: out.losses,
+                gradient: super::chain_to_3d(mesh.positions(), &views, &screen_grads),
+                stats,
+            });
+        }
+        let frame = self.render(mesh, cameras)?;
+        let mut view_losses = Vec::with_capacity(cameras.len());
+        let mut grads = Vec::with_capacity(cameras.len());
+        for (image, target) in frame.images().iter().zip(&targets.images) {
+            let l2 = loss::squared_error(image, target)?;
+            view_losses.push(l2.value);
+            grads.push(l2.grad);
+        }
+        let gradient = self.backward(&frame, &grads)?;
+        Ok(Step { loss: view_losses.iter().sum(), view_losses, gradient, stats: frame.stats().to_vec() })
+    }
+}
+
+/// Each camera's projection constants and raster parameters, validated.
+pub(super) fn world_views(
+    settings: &super::RenderSettings,
+    cameras: &[Camera],
+) -> Result<(Vec<crate::ViewParams>, Vec<crate::layout::RasterParams>)> {
+    let mut views = Vec::with_capacity(cameras.len());
+    let mut params = Vec::with_capacity(cameras.len());
+    for camera in cameras {
+        camera.validate()?;
+        views.push(camera.params());
+        params.push(crate::layout::RasterParams::new(
+            camera.width,
+            camera.height,
+            settings.supersample,
+            settings.inside,
+            settings.outside,
+        )?);
+    }
+    Ok((views, params))
+}
