@@ -34,6 +34,17 @@ use rayon::prelude::*;
 ///
 /// Indices are assumed valid: an index `>= vertices.len()` panics.
 pub fn exact_coverage(vertices: &[Vec2], triangles: &[[u32; 3]], width: u32, height: u32) -> Vec<f64> {
+    let vertices: Vec<DVec2> = vertices.iter().map(|v| v.as_dvec2()).collect();
+    exact_coverage_f64(&vertices, triangles, width, height)
+}
+
+/// [`exact_coverage`] with `f64` vertex coordinates.
+///
+/// For finite differences with steps far below `f32` resolution: moving an `f32` vertex by a
+/// small step `h` rounds the moved position to `f32` and spoils the difference quotient; in
+/// `f64` the step is kept exactly enough that the quotient's error is that of the area itself
+/// (about `1e-12 / h`). Same semantics and panics as [`exact_coverage`].
+pub fn exact_coverage_f64(vertices: &[DVec2], triangles: &[[u32; 3]], width: u32, height: u32) -> Vec<f64> {
     let (w, h) = (width as usize, height as usize);
     let mut out = vec![0.0; w * h];
     if w == 0 || h == 0 {
@@ -44,7 +55,7 @@ pub fn exact_coverage(vertices: &[Vec2], triangles: &[[u32; 3]], width: u32, hei
     let tris: Vec<[DVec2; 3]> = triangles
         .iter()
         .filter_map(|t| {
-            let [a, b, c] = t.map(|k| vertices[k as usize].as_dvec2());
+            let [a, b, c] = t.map(|k| vertices[k as usize]);
             if !(a.is_finite() && b.is_finite() && c.is_finite()) {
                 return None;
             }
