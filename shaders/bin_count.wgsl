@@ -7,6 +7,8 @@
 //         (more than LARGE_TILES tiles) is appended to its view's large list instead:
 //         `bins[large_offset + view · triangle_count + k]`, k from
 //         `status[status_index(view, STATUS_LARGE)]` (atomic).
+//         With a large triangle's entry it writes its occluder record (`occluder_record`) into
+//         `occluders`, reading its orientation from `classes` (so `orient` runs first).
 // Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
 // Then `scan` turns the counts into CSR offsets and `bin_fill` writes the lists.
 
@@ -18,6 +20,8 @@
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> bins: array<u32>;
+@group(0) @binding(6) var<storage, read> classes: array<i32>;
+@group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn main(
@@ -34,7 +38,10 @@ fn main(
     let t = i % n;
     let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
     let base = view * frame.params.vertex_count;
-    let tiles = triangle_tiles(view, tri, screen[base + tri.x], screen[base + tri.y], screen[base + tri.z]);
+    let s0 = screen[base + tri.x];
+    let s1 = screen[base + tri.y];
+    let s2 = screen[base + tri.z];
+    let tiles = triangle_tiles(view, tri, s0, s1, s2);
     if tiles.culled {
         atomicAdd(&status[status_index(view, STATUS_CULLED)], 1u);
         return;
@@ -45,7 +52,12 @@ fn main(
     }
     if is_large(r) {
         let k = atomicAdd(&status[status_index(view, STATUS_LARGE)], 1u);
-        bins[frame.params.large_offset + view * n + k] = t;
+        let entry = frame.params.large_offset + view * n + k;
+        bins[entry] = t;
+        let record = occluder_record(s0, s1, s2, classes[frame.params.orient_offset + view * n + t]);
+        let at = 2u * (entry - frame.params.bin_list_offset);
+        occluders[at] = record[0];
+        occluders[at + 1u] = record[1];
         return;
     }
     let v = frame.views[view];

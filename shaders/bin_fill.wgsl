@@ -2,7 +2,9 @@
 // the lists of its tiles.
 //
 // Reads:  `frame`, `screen`, `triangles`, the CSR offsets `bins[0 ..= total_tiles]`.
-// Writes: `bins[bin_list_offset + offsets[tile] + k]` = triangle index, for k < counts[tile];
+// Writes: `bins[bin_list_offset + offsets[tile] + k]` = triangle index, for k < counts[tile],
+//         and its occluder record (`occluder_record`, orientation from `classes`) at
+//         `occluders[2 · (offsets[tile] + k)]` and the next;
 //         `counts[tile]` is counted back down to 0 (atomic), which hands out the slots `k`.
 //         Nothing is written past `bin_capacity` (the host sees the needed size in `status`,
 //         grows the buffer and runs the frame again). Large triangles are skipped (`bin_count`
@@ -20,6 +22,8 @@
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> bins: array<u32>;
+@group(0) @binding(5) var<storage, read> classes: array<i32>;
+@group(0) @binding(6) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn main(
@@ -36,12 +40,16 @@ fn main(
     let t = i % n;
     let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
     let base = view * frame.params.vertex_count;
-    let tiles = triangle_tiles(view, tri, screen[base + tri.x], screen[base + tri.y], screen[base + tri.z]);
+    let s0 = screen[base + tri.x];
+    let s1 = screen[base + tri.y];
+    let s2 = screen[base + tri.z];
+    let tiles = triangle_tiles(view, tri, s0, s1, s2);
     let r = tiles.range;
     if r.x < 0 || is_large(r) {
         return;
     }
     let v = frame.views[view];
+    let record = occluder_record(s0, s1, s2, classes[frame.params.orient_offset + view * n + t]);
     for (var ty = r.y; ty <= r.w; ty++) {
         let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
         for (var tx = r.x; tx <= r.z; tx++) {
@@ -49,6 +57,8 @@ fn main(
             let slot = bins[tile] + atomicSub(&counts[tile], 1u) - 1u;
             if slot < frame.params.bin_capacity {
                 bins[frame.params.bin_list_offset + slot] = t;
+                occluders[2u * slot] = record[0];
+                occluders[2u * slot + 1u] = record[1];
             }
         }
     }

@@ -2,9 +2,10 @@
 // every view, the analytic derivative of the loss with respect to its two endpoints, over the
 // pixels it crosses, visible parts only.
 //
-// Reads:  `frame`, `screen`, `triangles`, `edges`, `bins` (tile lists and large-triangle lists),
-//         `classes` (edge sides, face orientations, the candidate list), `d_image` (∂L/∂I of all
-//         views, concatenated like the images), `status` (list lengths).
+// Reads:  `frame`, `screen`, `edges`, `bins` (the tile lists' CSR offsets), `occluders` (the
+//         occluder record of every entry of the tile lists and large-triangle lists), `classes`
+//         (edge sides, the candidate list), `d_image` (∂L/∂I of all views, concatenated like the
+//         images), `status` (list lengths).
 // Writes: `partials[k · parts + p]` = (Σ g·∫(1 − s), Σ g·∫ s) over part p of candidate k, as two
 //         float-float numbers — each invocation only its own slot, no float atomics;
 //         `status[status_index(view, STATUS_SEGMENTS / STATUS_VISIBLE)]` and
@@ -13,10 +14,9 @@
 //         parts of each edge in order and applies the outward normal.
 //
 // Part p of an edge covers the pixels whose coordinate along the edge's major axis lies in
-// [tp, tp + t), t the view's tile size: at most ~2t + 1 pixels in 2 or 3 tiles, so no invocation
-// runs long (a 1000-pixel edge at t = 8 is 125 parts in parallel), and every pixel of the edge
-// belongs to exactly one part. The occluders of each tile the part crosses are intersected with
-// the part's segment once, then clipped to each of its pixels.
+// [Lp, Lp + L), L = `part_length(tile_size)` (4 to 16): at most ~2L + 1 pixels, so no invocation
+// runs long (a 1000-pixel edge is 63 parts in parallel), and every pixel of the edge belongs to
+// exactly one part. Small tiles (dense meshes) get short parts: their pixels hold many occluders.
 //
 // Per pixel: the scanline DDA of the CPU (rows the segment spans, columns within each row),
 // Liang–Barsky clipping to the pixel, ½ weight for a segment lying on a pixel border, then the
@@ -41,7 +41,8 @@
 //!include shared/dispatch.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
-@group(0) @binding(2) var<storage, read> triangles: array<u32>;
+// Occluder records beside the bin list entries (shared/tiles.wgsl, `occluder_record`).
+@group(0) @binding(2) var<storage, read> occluders: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> edges: array<u32>;
 @group(0) @binding(4) var<storage, read> bins: array<u32>;
 @group(0) @binding(5) var<storage, read> classes: array<i32>;
@@ -137,18 +138,20 @@ fn clip_by_occluder_edge(
 // `occluded_interval`); empty when none. `bb` is the segment's bounding box (lo, hi), already
 // grown by a margin: the box test is only a filter, a triangle it lets through gets its exact
 // (possibly empty) interval.
-fn occluded_interval(edge: Edge, t: u32, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
+fn occluded_interval(edge: Edge, entry: u32, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
     let none = vec4<f32>(1.0, 0.0, 0.0, 0.0);
-    let base = edge.view * frame.params.vertex_count;
-    let q0 = screen[base + triangles[3u * t]].position;
-    let q1 = screen[base + triangles[3u * t + 1u]].position;
-    let q2 = screen[base + triangles[3u * t + 2u]].position;
+    let at = 2u * (entry - frame.params.bin_list_offset);
+    let r0 = occluders[at];
+    let r1 = occluders[at + 1u];
+    let q0 = r0.xy;
+    let q1 = r0.zw;
+    let q2 = r1.xy;
     let qlo = min(min(q0, q1), q2);
     let qhi = max(max(q0, q1), q2);
     if qlo.x > bb.z || qlo.y > bb.w || qhi.x < bb.x || qhi.y < bb.y {
         return none;
     }
-    let o = f32(classes[frame.params.orient_offset + edge.view * frame.params.triangle_count + t]);
+    let o = r1.z;
     if o == 0.0 {
         return none;
     }
@@ -170,11 +173,12 @@ struct Lists {
     large_count: u32,
 }
 
+// The bins index of entry k of the lists (its occluder record is at 2 · (index − bin_list_offset)).
 fn list_entry(lists: Lists, k: u32) -> u32 {
     if k < lists.tile_count {
-        return bins[lists.tile_start + k];
+        return lists.tile_start + k;
     }
-    return bins[lists.large_start + k - lists.tile_count];
+    return lists.large_start + k - lists.tile_count;
 }
 
 // What `fill_cache` returns when one interval covers the whole range.
@@ -201,13 +205,11 @@ fn fill_cache(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> u32 {
     return n;
 }
 
-// Interval k over [c.lo, c.hi]: a cached interval (computed over a range containing c) clipped to
-// c — the same bits as computing it over c, since the occluder bounds only narrow it with exact
-// max/min — or, when the lists overflowed the cache, recomputed from list entry k.
+// Interval k over [c.lo, c.hi]: from the cache, or (when the lists overflowed it) recomputed from
+// list entry k.
 fn interval(k: u32, cached: bool, edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
     if cached {
-        let iv = cache[k];
-        return vec4<f32>(ff_max(iv.xy, c.xy), ff_min(iv.zw, c.zw));
+        return cache[k];
     }
     return occluded_interval(edge, list_entry(lists, k), c, bb);
 }
@@ -251,6 +253,12 @@ fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32
     return weights;
 }
 
+// Pixels per part along an edge's major axis for a view with tiles of `tile_size` pixels
+// (`stages::part_length`).
+fn part_length(tile_size: u32) -> u32 {
+    return clamp(4u * tile_size, 4u, 16u);
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
@@ -287,8 +295,9 @@ fn main(
     }
     // This part's slab along the major axis.
     let x_major = abs(dx.x) >= abs(dy.x);
-    let slab_lo = i32(part * r.tile_size);
-    let slab_hi = slab_lo + i32(r.tile_size) - 1;
+    let part_pixels = part_length(r.tile_size);
+    let slab_lo = i32(part * part_pixels);
+    let slab_hi = slab_lo + i32(part_pixels) - 1;
     if x_major {
         if !clip_parameter(va.x, dx, f32(slab_lo), f32(slab_hi + 1), &s) {
             return;
@@ -316,14 +325,7 @@ fn main(
     }
     // Margin of the occluder box filter: far above the f32 error of the boxes.
     let margin = 1e-3 * (1.0 + max(max(abs(va.x), abs(va.y)), max(abs(vb.x), abs(vb.y))) * 1e-3);
-    // The part's segment and its box: the occluder intervals of a tile are computed once over it
-    // (`fill_cache`) and clipped to each pixel of the part in that tile.
-    let part_bb = vec4<f32>(
-        min(va + s.x * d, va + s.z * d) - margin,
-        max(va + s.x * d, va + s.z * d) + margin,
-    );
-    var cache_tile = 0xffffffffu;
-    var cache_count = 0u;
+
     for (var row = row_lo; row <= row_hi && tick(); row++) {
         var rs = s;
         if !clip_parameter(va.y, dy, f32(row), f32(row) + 1.0, &rs) {
@@ -355,24 +357,16 @@ fn main(
             lists.tile_start = min(bins[tile], frame.params.bin_capacity);
             lists.tile_count = min(bins[tile + 1u], frame.params.bin_capacity) - lists.tile_start;
             lists.tile_start += frame.params.bin_list_offset;
-            if tile != cache_tile {
-                cache_tile = tile;
-                cache_count = fill_cache(edge, lists, s, part_bb);
-            }
+            let p0 = va + c.x * d;
+            let p1 = va + c.z * d;
+            let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
             var k = vec2<f32>(0.0);
-            if cache_count <= CACHE {
-                k = visible_weights(edge, lists, c, part_bb, cache_count, true);
-            } else if cache_count != HIDDEN {
-                // More intervals than the cache holds: this pixel's own, recomputed as needed.
-                let p0 = va + c.x * d;
-                let p1 = va + c.z * d;
-                let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
-                let n = fill_cache(edge, lists, c, bb);
-                if n <= CACHE {
-                    k = visible_weights(edge, lists, c, bb, n, true);
-                } else if n != HIDDEN {
-                    k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count, false);
-                }
+            let n = fill_cache(edge, lists, c, bb);
+            if n <= CACHE {
+                k = visible_weights(edge, lists, c, bb, n, true);
+            } else if n != HIDDEN {
+                // More intervals than the cache holds: recomputed from the lists as needed.
+                k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count, false);
             }
             if k.x != 0.0 || k.y != 0.0 {
                 visible++;

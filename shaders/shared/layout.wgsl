@@ -89,8 +89,8 @@ struct FrameParams {
     // Index of the first large-triangle list in the `bins` buffer (view v's list starts at
     // large_offset + v · triangle_count; see shared/tiles.wgsl).
     large_offset: u32,
-    // Parts per candidate edge in `edge_grad` (the largest ceil(image side / tile_size) of the
-    // views: a part is one tile-wide slab along the edge's major axis).
+    // Parts per candidate edge in `edge_grad` (the largest ceil(image side / part_length(tile_size))
+    // of the views).
     parts: u32,
     // Loop iterations one SIMD batch of invocations may run before the stage stops and reports
     // it: 60,000 on llvmpipe (which silently ends loops after 65,535), 0 (no limit) elsewhere.

@@ -16,6 +16,18 @@ struct TileRange {
     culled: bool,
 }
 
+// The occluder record `edge_grad` reads for a listed triangle, stored beside its list entry
+// (`occluders[2 · (entry − bin_list_offset)]` and the next): (q0, q1) and (q2, orientation, 0) in
+// screen pixels, so that an occlusion test reads one contiguous record instead of following
+// triangle → vertex indices. The orientation is the face's exact sign from `orient` (0 for a
+// degenerate face, which occludes nothing).
+fn occluder_record(s0: ScreenVertex, s1: ScreenVertex, s2: ScreenVertex, orientation: i32) -> array<vec4<f32>, 2> {
+    return array<vec4<f32>, 2>(
+        vec4<f32>(s0.position, s1.position),
+        vec4<f32>(s2.position, f32(orientation), 0.0),
+    );
+}
+
 fn is_large(r: vec4<i32>) -> bool {
     return (r.z - r.x + 1) * (r.w - r.y + 1) > LARGE_TILES;
 }

@@ -31,7 +31,8 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::stages::{
-    status, FrameLayout, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
+    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
+    MAX_VIEWS,
 };
 use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
 use crate::camera::ViewParams;
@@ -219,6 +220,8 @@ struct FrameBuffers {
     candidates: u32,
     /// Buffers only the bind groups use (masks), kept with the frame.
     _internal: Vec<wgpu::Buffer>,
+    /// The occluder record of every bin list entry (`edge_grad` binds it per partials buffer).
+    occluders: wgpu::Buffer,
 }
 
 impl FrameBuffers {
@@ -338,7 +341,7 @@ impl GpuBackend {
             &[
                 (0, u),
                 (1, &f.screen),
-                (2, &topo.triangles),
+                (2, &f.occluders),
                 (3, &topo.edges),
                 (4, &f.bins),
                 (5, &f.classes),
@@ -486,14 +489,19 @@ impl GpuBackend {
         let total_tiles = check_index(layout.total_tiles)?;
         let max_binding = ctx.limits().max_storage_buffer_binding_size / 4;
         let large_lists = n * triangles;
-        let capacity = capacity.min(max_binding.saturating_sub(layout.total_tiles + 1 + large_lists)).max(1);
+        // The occluder records take 32 bytes per list entry (large lists included).
+        let max_records = ctx.limits().max_storage_buffer_binding_size / 32;
+        let capacity = capacity
+            .min(max_binding.saturating_sub(layout.total_tiles + 1 + large_lists))
+            .min(max_records.saturating_sub(large_lists))
+            .max(1);
         let bin_capacity = check_index(capacity)?;
         check_index(layout.total_tiles + 1 + capacity + large_lists)?;
         check_index(n * (3 * edges + triangles))?;
         let parts = layout
             .views
             .iter()
-            .map(|v| v.raster.width.max(v.raster.height).div_ceil(v.raster.tile_size))
+            .map(|v| v.raster.width.max(v.raster.height).div_ceil(part_length(v.raster.tile_size)))
             .max()
             .unwrap_or(1);
         if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
@@ -535,6 +543,7 @@ impl GpuBackend {
         let screen = ctx.storage_buffer("diffsil screen", at_least_one(n * vertices, 16))?;
         let counts = ctx.storage_buffer("diffsil tile counts", layout.total_tiles * 4)?;
         let bins = ctx.storage_buffer("diffsil bins", (layout.total_tiles + 1 + capacity + large_lists) * 4)?;
+        let occluders = ctx.storage_buffer("diffsil occluder records", (capacity + large_lists) * 32)?;
         let status_buffer = ctx.storage_buffer("diffsil status", status::len(n as usize) as u64 * 4)?;
         let masks = ctx.storage_buffer("diffsil masks", layout.total_pixels * wpp * 4)?;
         let image = ctx.storage_buffer("diffsil image", layout.total_pixels * 4)?;
@@ -564,14 +573,23 @@ impl GpuBackend {
                 "bin_count",
                 &p.bin_count,
                 0,
-                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &status_buffer), (5, &bins)],
+                &[
+                    (0, u),
+                    (1, &screen),
+                    (2, &topo.triangles),
+                    (3, &counts),
+                    (4, &status_buffer),
+                    (5, &bins),
+                    (6, &classes),
+                    (7, &occluders),
+                ],
             )?,
             scan: ctx.bind_entries("scan", &p.scan, 0, &[(0, u), (1, &counts), (2, &bins), (3, &status_buffer)])?,
             bin_fill: ctx.bind_entries(
                 "bin_fill",
                 &p.bin_fill,
                 0,
-                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &bins)],
+                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &bins), (5, &classes), (6, &occluders)],
             )?,
             coverage: ctx.bind_entries(
                 "coverage",
@@ -627,6 +645,7 @@ impl GpuBackend {
             loss: None,
             candidates: 0,
             _internal: vec![masks],
+            occluders,
         })
     }
 
@@ -679,6 +698,12 @@ impl GpuBackend {
                 ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
             }
             {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "orient");
+                pass.set_pipeline(&p.orient);
+                pass.set_bind_group(0, &g.orient, &[]);
+                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
+            }
+            {
                 let mut pass = stage_pass(&mut encoder, &mut timer, "bin_count");
                 pass.set_pipeline(&p.bin_count);
                 pass.set_bind_group(0, &g.bin_count, &[]);
@@ -711,12 +736,6 @@ impl GpuBackend {
                 pass.set_pipeline(&p.resolve);
                 pass.set_bind_group(0, &g.resolve, &[]);
                 ctx.dispatch_1d(&mut pass, params.total_pixels, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "orient");
-                pass.set_pipeline(&p.orient);
-                pass.set_bind_group(0, &g.orient, &[]);
-                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
             }
             {
                 let mut pass = stage_pass(&mut encoder, &mut timer, "edges");

@@ -36,6 +36,14 @@ use crate::layout::RasterParams;
 /// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.
 pub const MAX_GPU_TILE_SIZE: u32 = 16;
 
+/// Pixels per part of an edge along its major axis in `edge_grad` for a view with tiles of
+/// `tile_size` pixels: 4 · tile_size, from 4 to 16 (keep in sync with `part_length` in
+/// `shaders/edge_grad.wgsl`). Dense meshes (small tiles) get short parts, so that no invocation
+/// scans many long occluder lists.
+pub fn part_length(tile_size: u32) -> u32 {
+    (4 * tile_size).clamp(4, 16)
+}
+
 /// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
 /// workgroup).
 const MAX_TILES_PER_VIEW: u64 = 1 << 18;
@@ -98,8 +106,8 @@ pub struct FrameParams {
     /// Index of the first large-triangle list in the bins buffer (view `v`'s starts at
     /// `large_offset + v · triangle_count`).
     pub large_offset: u32,
-    /// Parts per candidate edge in `edge_grad`: the largest `ceil(image side / tile size)` of the
-    /// views (a part is one tile-wide slab along the edge's major axis).
+    /// Parts per candidate edge in `edge_grad`: the largest `ceil(image side / part_length)` of
+    /// the views ([`part_length`]).
     pub parts: u32,
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
     /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
