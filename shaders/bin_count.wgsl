@@ -1,7 +1,7 @@
 // `bin_count` — first half of the GPU twin of `cpu::bin::bin` (src/cpu/bin.rs): counts the
 // triangles listed in every tile, and the culled triangles of every view.
 //
-// Reads:  `frame`, `screen` (all views), `triangles` (3 indices per triangle).
+// Reads:  `frame`, `screen` and `snapped` (all views), `triangles` (3 indices per triangle).
 // Writes: `counts[tile]` (+1 per listed triangle, atomic; cleared by the host before),
 //         `status[status_index(view, STATUS_CULLED)]` (+1 per culled triangle); a large triangle
 //         (more than LARGE_TILES tiles) is appended to its view's large list instead:
@@ -16,6 +16,7 @@
 //!include shared/dispatch.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(8) var<storage, read> snapped: array<vec2<i32>>;
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>>;
@@ -41,7 +42,7 @@ fn main(
     let s0 = screen[base + tri.x];
     let s1 = screen[base + tri.y];
     let s2 = screen[base + tri.z];
-    let tiles = triangle_tiles(view, tri, s0, s1, s2);
+    let tiles = triangle_tiles(view, snapped[base + tri.x], snapped[base + tri.y], snapped[base + tri.z]);
     if tiles.culled {
         atomicAdd(&status[status_index(view, STATUS_CULLED)], 1u);
         return;

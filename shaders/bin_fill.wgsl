@@ -1,7 +1,8 @@
 // `bin_fill` — last half of the GPU twin of `cpu::bin::bin`: writes every listed triangle into
 // the lists of its tiles.
 //
-// Reads:  `frame`, `screen`, `triangles`, the CSR offsets `bins[0 ..= total_tiles]`.
+// Reads:  `frame`, `screen`, `snapped`, `triangles`, `classes` (face orientations), the CSR
+//         offsets `bins[0 ..= total_tiles]`.
 // Writes: `bins[bin_list_offset + offsets[tile] + k]` = triangle index, for k < counts[tile],
 //         and its occluder record (`occluder_record`, orientation from `classes`) at
 //         `occluders[2 · (offsets[tile] + k)]` and the next;
@@ -19,6 +20,7 @@
 //!include shared/dispatch.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
+@group(0) @binding(7) var<storage, read> snapped: array<vec2<i32>>;
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> bins: array<u32>;
@@ -43,7 +45,7 @@ fn main(
     let s0 = screen[base + tri.x];
     let s1 = screen[base + tri.y];
     let s2 = screen[base + tri.z];
-    let tiles = triangle_tiles(view, tri, s0, s1, s2);
+    let tiles = triangle_tiles(view, snapped[base + tri.x], snapped[base + tri.y], snapped[base + tri.z]);
     let r = tiles.range;
     if r.x < 0 || is_large(r) {
         return;

@@ -1,7 +1,7 @@
 // `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage.rs): the F×F sample masks of
 // every pixel of every view.
 //
-// Reads:  `frame`, `screen`, `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
+// Reads:  `frame`, `snapped` (from `snap_vertices` in project.wgsl), `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
 //         large-triangle lists), `status` (the large lists' lengths).
 // Writes: `masks[(pixel_offset + row · width + column) · words_per_pixel + w]` for every pixel of
 //         every view (each written exactly once, by the invocation that owns the pixel).
@@ -30,11 +30,11 @@
 //!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
 
-@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read> bins: array<u32>;
 @group(0) @binding(4) var<storage, read_write> masks: array<u32>;
 @group(0) @binding(5) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read> snapped: array<vec2<i32>>;
 
 const SMALL_EXTENT: i32 = 16384;
 const FLAG_NONEMPTY: i32 = 1;
@@ -70,15 +70,12 @@ fn setup(view: u32, t: u32) -> Setup {
     let empty = Setup(vec4<i32>(0), vec4<i32>(0), vec4<i32>(0));
     let r = frame.views[view].raster;
     let base = view * frame.params.vertex_count;
-    let s0 = screen[base + triangles[3u * t]];
-    let s1 = screen[base + triangles[3u * t + 1u]];
-    var s2 = screen[base + triangles[3u * t + 2u]];
-    if s0.valid == 0u || s1.valid == 0u || s2.valid == 0u {
+    let a = snapped[base + triangles[3u * t]];
+    var b = snapped[base + triangles[3u * t + 1u]];
+    var c = snapped[base + triangles[3u * t + 2u]];
+    if a.x == INVALID_SNAPPED || b.x == INVALID_SNAPPED || c.x == INVALID_SNAPPED {
         return empty;
     }
-    let a = vec2<i32>(snap(s0.position.x, r.units), snap(s0.position.y, r.units));
-    var b = vec2<i32>(snap(s1.position.x, r.units), snap(s1.position.y, r.units));
-    var c = vec2<i32>(snap(s2.position.x, r.units), snap(s2.position.y, r.units));
     let area2 = i64_sub(i64_mul_i32(b.x - a.x, c.y - a.y), i64_mul_i32(b.y - a.y, c.x - a.x));
     if i64_is_zero(area2) {
         return empty;

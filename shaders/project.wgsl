@@ -1,5 +1,5 @@
 // `project` — twin of `cpu::project::project` (src/cpu/project.rs): 3D vertices → screen vertices,
-// every view at once.
+// every view at once; then `snap` (twin of `cpu::project::snap`), for 3D and screen-space input.
 //
 // Reads:  `frame` (uniform: sizes, views), `cameras[view]` (one ViewParams per view),
 //         `positions` (x, y, z per vertex, f32).
@@ -22,6 +22,32 @@ const COORD_LIMIT: f32 = 1048576.0;
 @group(0) @binding(1) var<storage, read> cameras: array<ViewParams>;
 @group(0) @binding(2) var<storage, read> positions: array<f32>;
 @group(0) @binding(3) var<storage, read_write> screen: array<ScreenVertex>;
+@group(0) @binding(4) var<storage, read_write> snapped: array<vec2<i32>>;
+
+// Reads:  `frame`, `screen` (every view).
+// Writes: `snapped[view · vertex_count + v]`: the vertex on its view's fixed-point grid
+//         (`RasterParams::snap_vertex`), (i32::MIN, i32::MIN) when clipped. Snapping is exact but
+//         costly (`snap` in shared/exact.wgsl); binning and coverage read the result.
+// Dispatch: 1D over view_count · vertex_count invocations (64 per workgroup).
+@compute @workgroup_size(64)
+fn snap_vertices(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
+    let n = frame.params.vertex_count;
+    if i >= n * frame.params.view_count {
+        return;
+    }
+    let s = screen[i];
+    if s.valid == 0u {
+        snapped[i] = vec2<i32>(INVALID_SNAPPED, INVALID_SNAPPED);
+        return;
+    }
+    let units = frame.views[i / n].raster.units;
+    snapped[i] = vec2<i32>(snap(s.position.x, units), snap(s.position.y, units));
+}
 
 fn dot_glam(r: vec4<f32>, p: vec3<f32>) -> f32 {
     let x = no_fuse(r.x * p.x);

@@ -100,6 +100,9 @@ struct FrameParams {
     pad2: u32,
 }
 
+// A clipped vertex's snapped coordinates (`layout::INVALID_SNAPPED`).
+const INVALID_SNAPPED: i32 = -2147483647 - 1;
+
 // Views per GPU frame (the size of the uniform array of views).
 const MAX_VIEWS: u32 = 256u;
 

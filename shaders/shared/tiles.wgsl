@@ -9,8 +9,8 @@
 //!include shared/frame.wgsl
 //!include shared/exact.wgsl
 
-// Inclusive tile range (tx0, ty0, tx1, ty1) of triangle `tri` (vertex indices) in view `view`, or
-// tx0 = -1 when it is listed nowhere; `culled` is set when a vertex is clipped.
+// Inclusive tile range (tx0, ty0, tx1, ty1) of the triangle with snapped vertices a, b, c in view
+// `view`, or tx0 = -1 when it is listed nowhere; `culled` is set when a vertex is clipped.
 struct TileRange {
     range: vec4<i32>,
     culled: bool,
@@ -32,15 +32,15 @@ fn is_large(r: vec4<i32>) -> bool {
     return (r.z - r.x + 1) * (r.w - r.y + 1) > LARGE_TILES;
 }
 
-fn triangle_tiles(view: u32, tri: vec3<u32>, s0: ScreenVertex, s1: ScreenVertex, s2: ScreenVertex) -> TileRange {
+fn triangle_tiles(view: u32, a: vec2<i32>, b: vec2<i32>, c: vec2<i32>) -> TileRange {
     let none = vec4<i32>(-1, -1, -1, -1);
-    if s0.valid == 0u || s1.valid == 0u || s2.valid == 0u {
+    if a.x == INVALID_SNAPPED || b.x == INVALID_SNAPPED || c.x == INVALID_SNAPPED {
         return TileRange(none, true);
     }
     let r = frame.views[view].raster;
     let units = i32(r.units);
-    let x = vec3<i32>(snap(s0.position.x, r.units), snap(s1.position.x, r.units), snap(s2.position.x, r.units));
-    let y = vec3<i32>(snap(s0.position.y, r.units), snap(s1.position.y, r.units), snap(s2.position.y, r.units));
+    let x = vec3<i32>(a.x, b.x, c.x);
+    let y = vec3<i32>(a.y, b.y, c.y);
     let x_lo = floor_div(min(min(x.x, x.y), x.z) - 1, units);
     let x_hi = floor_div(max(max(x.x, x.y), x.z) + 1, units);
     let y_lo = floor_div(min(min(y.x, y.y), y.z) - 1, units);

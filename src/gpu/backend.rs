@@ -94,6 +94,7 @@ pub(crate) struct GpuFrame {
 
 struct Pipelines {
     project: wgpu::ComputePipeline,
+    snap: wgpu::ComputePipeline,
     bin_count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     bin_fill: wgpu::ComputePipeline,
@@ -111,6 +112,7 @@ impl Pipelines {
     fn new(ctx: &GpuContext) -> Result<Pipelines> {
         Ok(Pipelines {
             project: ctx.compute_pipeline("project.wgsl", "main")?,
+            snap: ctx.compute_pipeline("project.wgsl", "snap_vertices")?,
             bin_count: ctx.compute_pipeline("bin_count.wgsl", "main")?,
             scan: ctx.compute_pipeline("scan.wgsl", "main")?,
             bin_fill: ctx.compute_pipeline("bin_fill.wgsl", "main")?,
@@ -166,6 +168,7 @@ struct Shape {
 
 struct BindGroups {
     project: Option<wgpu::BindGroup>,
+    snap: wgpu::BindGroup,
     bin_count: wgpu::BindGroup,
     scan: wgpu::BindGroup,
     bin_fill: wgpu::BindGroup,
@@ -541,6 +544,7 @@ impl GpuBackend {
             (ctx.storage_buffer("diffsil cameras (unused)", 80)?, ctx.storage_buffer("diffsil positions (unused)", 4)?)
         };
         let screen = ctx.storage_buffer("diffsil screen", at_least_one(n * vertices, 16))?;
+        let snapped = ctx.storage_buffer("diffsil snapped", at_least_one(n * vertices, 8))?;
         let counts = ctx.storage_buffer("diffsil tile counts", layout.total_tiles * 4)?;
         let bins = ctx.storage_buffer("diffsil bins", (layout.total_tiles + 1 + capacity + large_lists) * 4)?;
         let occluders = ctx.storage_buffer("diffsil occluder records", (capacity + large_lists) * 32)?;
@@ -569,6 +573,7 @@ impl GpuBackend {
             } else {
                 None
             },
+            snap: ctx.bind_entries("snap", &p.snap, 0, &[(0, u), (3, &screen), (4, &snapped)])?,
             bin_count: ctx.bind_entries(
                 "bin_count",
                 &p.bin_count,
@@ -582,6 +587,7 @@ impl GpuBackend {
                     (5, &bins),
                     (6, &classes),
                     (7, &occluders),
+                    (8, &snapped),
                 ],
             )?,
             scan: ctx.bind_entries("scan", &p.scan, 0, &[(0, u), (1, &counts), (2, &bins), (3, &status_buffer)])?,
@@ -589,13 +595,22 @@ impl GpuBackend {
                 "bin_fill",
                 &p.bin_fill,
                 0,
-                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &counts), (4, &bins), (5, &classes), (6, &occluders)],
+                &[
+                    (0, u),
+                    (1, &screen),
+                    (2, &topo.triangles),
+                    (3, &counts),
+                    (4, &bins),
+                    (5, &classes),
+                    (6, &occluders),
+                    (7, &snapped),
+                ],
             )?,
             coverage: ctx.bind_entries(
                 "coverage",
                 &p.coverage,
                 0,
-                &[(0, u), (1, &screen), (2, &topo.triangles), (3, &bins), (4, &masks), (5, &status_buffer)],
+                &[(0, u), (2, &topo.triangles), (3, &bins), (4, &masks), (5, &status_buffer), (6, &snapped)],
             )?,
             resolve: ctx.bind_entries("resolve", &p.resolve, 0, &[(0, u), (1, &masks), (2, &image)])?,
             edges: ctx.bind_entries(
@@ -644,7 +659,7 @@ impl GpuBackend {
             partials: None,
             loss: None,
             candidates: 0,
-            _internal: vec![masks],
+            _internal: vec![masks, snapped],
             occluders,
         })
     }
@@ -695,6 +710,12 @@ impl GpuBackend {
                 let mut pass = stage_pass(&mut encoder, &mut timer, "project");
                 pass.set_pipeline(&p.project);
                 pass.set_bind_group(0, group, &[]);
+                ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
+            }
+            {
+                let mut pass = stage_pass(&mut encoder, &mut timer, "snap");
+                pass.set_pipeline(&p.snap);
+                pass.set_bind_group(0, &g.snap, &[]);
                 ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
             }
             {
