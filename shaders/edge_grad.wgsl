@@ -49,6 +49,33 @@
 @group(0) @binding(6) var<storage, read> d_image: array<f32>;
 @group(0) @binding(7) var<storage, read_write> partials: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+// The indirect dispatch of `main` in a fused step (written by `args`).
+@group(0) @binding(9) var<storage, read_write> dispatch_args: array<u32, 3>;
+
+// Reads:  `frame` (parts, partial_capacity, max_workgroups), `status` (the candidate count).
+// Writes: `dispatch_args`: the workgroup grid of `main` for candidates × parts invocations (64 per
+//         workgroup, tiled like `workgroup_grid` in src/gpu/mod.rs), or an empty grid and
+//         `status[STATUS_PARTIALS_SHORT]` = 1 when they exceed `partial_capacity` (the host then
+//         grows the buffer and runs the backward on its own).
+// Dispatch: one invocation, in a fused step (forward, loss and backward in one submission),
+//         between `edges` and `main`.
+@compute @workgroup_size(1)
+fn args() {
+    let parts = max(frame.params.parts, 1u);
+    let candidates = atomicLoad(&status[STATUS_CANDIDATE_TOTAL]);
+    dispatch_args = array<u32, 3>(0u, 1u, 1u);
+    if candidates > frame.params.partial_capacity / parts {
+        atomicStore(&status[STATUS_PARTIALS_SHORT], 1u);
+        return;
+    }
+    let groups = (candidates * parts + 63u) / 64u;
+    if groups == 0u {
+        return;
+    }
+    let limit = max(frame.params.max_workgroups, 1u);
+    let y = (groups + limit - 1u) / limit;
+    dispatch_args = array<u32, 3>((groups + y - 1u) / y, y, 1u);
+}
 
 // An interval [lo, hi] of float-float parameters: (lo.hi, lo.lo, hi.hi, hi.lo); empty when
 // hi ≤ lo.

@@ -135,8 +135,8 @@ fn shared_structs_match_their_wgsl_twins() {
                 ("large_offset", 1),
                 ("parts", 1),
                 ("loop_budget", 1),
-                ("pad0", 1),
-                ("pad1", 1),
+                ("partial_capacity", 1),
+                ("max_workgroups", 1),
                 ("pad2", 1),
             ],
         ),
@@ -177,7 +177,7 @@ fn frame_uniform_layout() {
         got,
         vec![
             frame.params.view_count,
-            frame.params.pad[2],
+            frame.params.pad[0],
             last.raster.width,
             last.raster.inv_samples.to_bits(),
             last.tile_offset

@@ -110,6 +110,29 @@ fn gpu_step_after_another_frame_uses_its_own_targets() {
     assert_eq!(first, second);
 }
 
+/// After a first step has sized its buffers, a step runs forward, loss and backward in one
+/// submission (the `edge_grad_args` stage sizes the backward on the GPU), with the same result.
+#[test]
+fn gpu_steps_after_the_first_are_fused() {
+    let Some(_) = gpu_or_skip("gpu_steps_after_the_first_are_fused") else { return };
+    let options = diffsil::gpu::GpuOptions { profile: true, ..diffsil::gpu::GpuOptions::from_env() };
+    let mut gpu = Renderer::with_backend(RenderSettings::default(), diffsil::Backend::Gpu(options)).unwrap();
+    let (mesh, cameras) = (mesh(), cameras());
+    let targets = targets(&mesh, &cameras, Vec3::new(0.02, 0.03, 0.0));
+    let first = gpu.squared_error_step(&mesh, &cameras, &targets).unwrap();
+    let second = gpu.squared_error_step(&mesh, &cameras, &targets).unwrap();
+    assert_eq!(first, second);
+    let stages: Vec<&str> = gpu.gpu_stage_timings().iter().map(|t| t.stage).collect();
+    if stages.is_empty() {
+        println!("no timestamp queries on this adapter: cannot see which stages ran");
+        return;
+    }
+    assert!(stages.contains(&"loss") && stages.contains(&"edge_grad_args"), "{stages:?}");
+    let reference =
+        Renderer::new(RenderSettings::default()).unwrap().squared_error_step(&mesh, &cameras, &targets).unwrap();
+    assert!(relative(&second.gradient, &reference.gradient) <= 1e-5);
+}
+
 #[test]
 fn step_rejects_mismatched_targets() {
     let (mesh, cameras) = (mesh(), cameras());

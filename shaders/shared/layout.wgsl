@@ -95,8 +95,10 @@ struct FrameParams {
     // Loop iterations one SIMD batch of invocations may run before the stage stops and reports
     // it: 60,000 on llvmpipe (which silently ends loops after 65,535), 0 (no limit) elsewhere.
     loop_budget: u32,
-    pad0: u32,
-    pad1: u32,
+    // Capacity of `edge_grad`'s partials buffer (entries), for the fused step's indirect dispatch.
+    partial_capacity: u32,
+    // The device's max_compute_workgroups_per_dimension.
+    max_workgroups: u32,
     pad2: u32,
 }
 
@@ -118,16 +120,18 @@ struct Frame {
 //   [1]                 1 when the bin count overflowed u32 (written by `scan`)
 //   [2]                 candidate edges of all views (`edges`: the length of the candidate list)
 //   [3]                 most loop iterations one invocation of `coverage` or `edge_grad` ran
-//   [4 + 5·v + 0]       culled triangles of view v (`bin_count`)
-//   [4 + 5·v + 1]       candidate edges of view v (`edges`)
-//   [4 + 5·v + 2]       segments of view v (`edge_grad`)
-//   [4 + 5·v + 3]       visible segments of view v (`edge_grad`)
-//   [4 + 5·v + 4]       large triangles of view v (`bin_count`: the length of its large list)
+//   [4]                 1 when a fused step skipped `edge_grad` (partials buffer too small)
+//   [5 + 5·v + 0]       culled triangles of view v (`bin_count`)
+//   [5 + 5·v + 1]       candidate edges of view v (`edges`)
+//   [5 + 5·v + 2]       segments of view v (`edge_grad`)
+//   [5 + 5·v + 3]       visible segments of view v (`edge_grad`)
+//   [5 + 5·v + 4]       large triangles of view v (`bin_count`: the length of its large list)
 const STATUS_NEEDED: u32 = 0u;
 const STATUS_OVERFLOW: u32 = 1u;
 const STATUS_CANDIDATE_TOTAL: u32 = 2u;
 const STATUS_MAX_ITERATIONS: u32 = 3u;
-const STATUS_VIEW_BASE: u32 = 4u;
+const STATUS_PARTIALS_SHORT: u32 = 4u;
+const STATUS_VIEW_BASE: u32 = 5u;
 const STATUS_VIEW_STRIDE: u32 = 5u;
 const STATUS_CULLED: u32 = 0u;
 const STATUS_CANDIDATES: u32 = 1u;

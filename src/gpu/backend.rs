@@ -55,12 +55,25 @@ pub(crate) enum Input<'a> {
 /// What a forward reads back.
 #[derive(Clone, Copy)]
 pub(crate) enum Readback<'a> {
-    /// The images.
+    /// The images (the loss is computed on the host).
     Images,
     /// Not the images: the squared error against these targets (one per view, row-major, each of
-    /// its view's size), whose gradient stays on the GPU for the backward. `id` identifies the
-    /// targets' contents: they are uploaded again only when it changes.
-    Loss { id: u64, targets: &'a [&'a [f32]] },
+    /// its view's size), whose gradient stays on the GPU, and the backward of that loss in the
+    /// same submission (dispatched indirectly from the candidate count the forward finds), read
+    /// back with it: one round trip for a whole optimisation step. `id` identifies the targets'
+    /// contents: they are uploaded again only when it changes. The backward is left out (see
+    /// [`ForwardOutput::backward`]) where the device cannot dispatch indirectly or the partials
+    /// buffer is too small.
+    Step { id: u64, targets: &'a [&'a [f32]] },
+}
+
+impl Readback<'_> {
+    fn targets(&self) -> Option<(u64, &[&[f32]])> {
+        match *self {
+            Readback::Images => None,
+            Readback::Step { id, targets } => Some((id, targets)),
+        }
+    }
 }
 
 impl Input<'_> {
@@ -73,8 +86,12 @@ impl Input<'_> {
 pub(crate) struct ForwardOutput {
     /// One image per view, row-major (empty for [`Readback::Loss`]).
     pub images: Vec<Vec<f32>>,
-    /// Squared error per view (for [`Readback::Loss`]; empty otherwise).
+    /// Squared error per view (for [`Readback::Step`]; empty otherwise).
     pub losses: Vec<f64>,
+    /// For [`Readback::Step`]: `∂L/∂(screen vertex)` per view and the segment counts, when the
+    /// backward ran in the same submission (`None`: run [`GpuBackend::backward`] with no image
+    /// gradients).
+    pub backward: Option<(Vec<Vec<Vec2>>, Vec<SegmentStats>)>,
     /// Culled triangles per view.
     pub culled: Vec<u32>,
     /// Candidate edges per view.
@@ -83,6 +100,15 @@ pub(crate) struct ForwardOutput {
     pub tile_sizes: Vec<u32>,
     /// Identifies the GPU state this forward left behind (see [`GpuFrame`]).
     pub frame: GpuFrame,
+}
+
+/// What `run_forward` read back.
+struct ForwardRead {
+    images: Vec<Vec<f32>>,
+    losses: Vec<f64>,
+    counters: Vec<u32>,
+    /// The vertex gradients of all views, for a fused step.
+    grads: Option<Vec<Vec2>>,
 }
 
 /// Which forward a frame came from: the backend instance and the generation of its forward.
@@ -103,6 +129,7 @@ struct Pipelines {
     edges: wgpu::ComputePipeline,
     orient: wgpu::ComputePipeline,
     edge_grad: wgpu::ComputePipeline,
+    edge_grad_args: wgpu::ComputePipeline,
     edge_sum: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
     loss: wgpu::ComputePipeline,
@@ -121,6 +148,7 @@ impl Pipelines {
             edges: ctx.compute_pipeline("edges.wgsl", "main")?,
             orient: ctx.compute_pipeline("edges.wgsl", "orient")?,
             edge_grad: ctx.compute_pipeline("edge_grad.wgsl", "main")?,
+            edge_grad_args: ctx.compute_pipeline("edge_grad.wgsl", "args")?,
             edge_sum: ctx.compute_pipeline("edge_sum.wgsl", "main")?,
             gather: ctx.compute_pipeline("gather.wgsl", "main")?,
             loss: ctx.compute_pipeline("loss.wgsl", "main")?,
@@ -177,6 +205,9 @@ struct BindGroups {
     edges: wgpu::BindGroup,
     orient: wgpu::BindGroup,
     gather: wgpu::BindGroup,
+    /// `edge_grad.wgsl`'s `args` (the fused step's indirect dispatch); `None` where the device
+    /// cannot dispatch indirectly.
+    edge_grad_args: Option<wgpu::BindGroup>,
 }
 
 /// The per-part results of `edge_grad` (grown to the candidates × parts of the frame) and the bind
@@ -194,6 +225,8 @@ struct LossBuffers {
     target: wgpu::Buffer,
     partials: wgpu::Buffer,
     group: wgpu::BindGroup,
+    /// Readback of a fused step: per-tile losses, status counters, vertex gradients.
+    staging: wgpu::Buffer,
     /// Which targets `target` holds (0: none yet).
     id: u64,
 }
@@ -225,6 +258,8 @@ struct FrameBuffers {
     _internal: Vec<wgpu::Buffer>,
     /// The occluder record of every bin list entry (`edge_grad` binds it per partials buffer).
     occluders: wgpu::Buffer,
+    /// `edge_grad`'s indirect dispatch arguments in a fused step.
+    dispatch: wgpu::Buffer,
 }
 
 impl FrameBuffers {
@@ -359,6 +394,7 @@ impl GpuBackend {
             0,
             &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots)],
         )?;
+        f.uniform.params.partial_capacity = capacity.min(u32::MAX as u64) as u32;
         f.partials = Some(Partials { _buffer: buffer, capacity, edge_grad, edge_sum });
         Ok(())
     }
@@ -377,7 +413,12 @@ impl GpuBackend {
                 0,
                 &[(0, &f.uniform_buffer), (1, &f.image), (2, &target), (3, &f.d_image), (4, &partials)],
             )?;
-            f.loss = Some(LossBuffers { target, partials, group, id: 0 });
+            let (n, vertices) = (params.view_count as u64, params.vertex_count as u64);
+            let staging = ctx.staging_buffer(
+                "diffsil step readback",
+                params.total_tiles as u64 * 4 + status::len(n as usize) as u64 * 4 + n * vertices * 8,
+            )?;
+            f.loss = Some(LossBuffers { target, partials, group, staging, id: 0 });
         }
         let loss = f.loss.as_mut().expect("made above");
         if loss.id != id {
@@ -415,6 +456,7 @@ impl GpuBackend {
             return Ok(ForwardOutput {
                 images: Vec::new(),
                 losses: Vec::new(),
+                backward: None,
                 culled: Vec::new(),
                 candidates: Vec::new(),
                 tile_sizes: Vec::new(),
@@ -443,10 +485,14 @@ impl GpuBackend {
             let frame = self.frame.as_mut().expect("built above");
             // Settings (inside/outside) may change between frames of one shape.
             frame.uniform.views[..n].copy_from_slice(&layout.views);
-            if let Readback::Loss { id, targets } = readback {
+            if let Some((id, targets)) = readback.targets() {
                 self.ensure_loss(id, targets)?;
             }
-            let (images, losses, counters) = self.run_forward(input, readback)?;
+            if matches!(readback, Readback::Step { .. }) {
+                self.ensure_partials()?;
+            }
+            let read = self.run_forward(input, readback)?;
+            let (images, losses, counters) = (read.images, read.losses, read.counters);
             let frame = self.frame.as_ref().expect("built above");
             if counters[status::OVERFLOW] != 0 {
                 return Err(Error::GpuLimit { limit: "bin entries (u32)", needed: u64::MAX, max: u32::MAX as u64 });
@@ -465,9 +511,22 @@ impl GpuBackend {
             self.last_generation += 1;
             self.generation = self.last_generation;
             let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
+            let backward = read.grads.filter(|_| counters[status::PARTIALS_SHORT] == 0).map(|grads| {
+                let vertices = topology.vertex_count().max(1);
+                let mut per_view: Vec<Vec<Vec2>> = grads.chunks(vertices).map(|c| c.to_vec()).take(n).collect();
+                per_view.resize(n, Vec::new());
+                let stats = (0..n)
+                    .map(|v| SegmentStats {
+                        segments: counters[status::index(v, status::SEGMENTS)] as u64,
+                        visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
+                    })
+                    .collect();
+                (per_view, stats)
+            });
             return Ok(ForwardOutput {
                 images,
                 losses,
+                backward,
                 culled: per_view(status::CULLED),
                 candidates: per_view(status::CANDIDATES),
                 tile_sizes: layout.views.iter().map(|v| v.raster.tile_size).collect(),
@@ -530,7 +589,9 @@ impl GpuBackend {
             large_offset: total_tiles + 1 + bin_capacity,
             parts,
             loop_budget: if self.loop_limited() { LLVMPIPE_LOOP_BUDGET } else { 0 },
-            pad: [0; 3],
+            partial_capacity: 0,
+            max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
+            pad: [0; 1],
         };
         uniform.views[..layout.views.len()].copy_from_slice(&layout.views);
 
@@ -557,6 +618,7 @@ impl GpuBackend {
             ctx.storage_buffer("diffsil edge slots", at_least_one(n * edges, std::mem::size_of::<EdgeGrad>()))?;
         let grads = ctx.storage_buffer("diffsil vertex gradients", at_least_one(n * vertices, 8))?;
         let status_bytes = status::len(n as usize) as u64 * 4;
+        let dispatch = ctx.indirect_buffer("diffsil edge_grad dispatch", 12)?;
         let staging =
             ctx.staging_buffer("diffsil readback", (layout.total_pixels * 4).max(n * vertices * 8) + status_bytes)?;
 
@@ -632,6 +694,16 @@ impl GpuBackend {
                 0,
                 &[(0, u), (1, &screen), (2, &topo.triangles), (5, &classes)],
             )?,
+            edge_grad_args: if ctx.supports_indirect_dispatch() {
+                Some(ctx.bind_entries(
+                    "edge_grad args",
+                    &p.edge_grad_args,
+                    0,
+                    &[(0, u), (8, &status_buffer), (9, &dispatch)],
+                )?)
+            } else {
+                None
+            },
             gather: ctx.bind_entries(
                 "gather",
                 &p.gather,
@@ -660,14 +732,15 @@ impl GpuBackend {
             loss: None,
             candidates: 0,
             _internal: vec![masks, snapped],
+            dispatch,
             occluders,
         })
     }
 
-    /// Uploads the inputs, records and submits the forward, and reads back the status counters
-    /// and either the images or the per-view losses.
-    #[allow(clippy::type_complexity)]
-    fn run_forward(&mut self, input: Input<'_>, readback: Readback<'_>) -> Result<(Vec<Vec<f32>>, Vec<f64>, Vec<u32>)> {
+    /// Uploads the inputs, records and submits the forward (and, for [`Readback::Step`], the
+    /// backward), and reads back the status counters and the images or the per-view losses (and
+    /// the vertex gradients).
+    fn run_forward(&mut self, input: Input<'_>, readback: Readback<'_>) -> Result<ForwardRead> {
         let ctx = &self.ctx;
         let queue = ctx.queue();
         let f = self.frame.as_ref().expect("frame buffers built");
@@ -697,6 +770,11 @@ impl GpuBackend {
 
         let p = &self.pipelines;
         let g = &f.groups;
+        // The fused step's `args` bind group, when this forward also runs the backward.
+        let fused_args = match readback {
+            Readback::Step { .. } if f.loss.is_some() && f.partials.is_some() => g.edge_grad_args.as_ref(),
+            _ => None,
+        };
         let mut timer = self.timer.take();
         if let Some(t) = &mut timer {
             t.clear();
@@ -764,7 +842,7 @@ impl GpuBackend {
                 pass.set_bind_group(0, &g.edges, &[]);
                 ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
             }
-            if let (Readback::Loss { .. }, Some(loss)) = (readback, &f.loss) {
+            if let (Some(_), Some(loss)) = (readback.targets(), &f.loss) {
                 let mut pass = stage_pass(&mut encoder, &mut timer, "loss");
                 pass.set_pipeline(&p.loss);
                 pass.set_bind_group(0, &loss.group, &[]);
@@ -773,6 +851,15 @@ impl GpuBackend {
                 if grid[0] > 0 {
                     pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
                 }
+            }
+            if let (Some(args), Some(partials)) = (fused_args, &f.partials) {
+                {
+                    let mut pass = stage_pass(&mut encoder, &mut timer, "edge_grad_args");
+                    pass.set_pipeline(&p.edge_grad_args);
+                    pass.set_bind_group(0, args, &[]);
+                    pass.dispatch_workgroups(1, 1, 1);
+                }
+                self.record_backward(&mut encoder, &mut timer, partials, Some(&f.dispatch))?;
             }
             Ok(())
         })();
@@ -783,29 +870,38 @@ impl GpuBackend {
             self.timer = timer;
             return Err(e);
         }
-        // The staging buffer gets the images (or the per-tile losses), then the status counters.
-        let loss = match readback {
-            Readback::Loss { .. } => f.loss.as_ref(),
-            Readback::Images => None,
-        };
+        // The staging buffer gets the images (or the per-tile losses), then the status counters
+        // (then, fused, the vertex gradients).
+        let loss = readback.targets().and(f.loss.as_ref());
         let data_bytes = match loss {
             Some(_) => params.total_tiles as u64 * 4,
             None => params.total_pixels as u64 * 4,
         };
         let status_bytes = status::len(n as usize) as u64 * 4;
+        let grad_bytes = if fused_args.is_some() { n * vertices * 8 } else { 0 };
+        let staging = match (loss, fused_args) {
+            (Some(loss), Some(_)) => &loss.staging,
+            _ => &f.staging,
+        };
         match loss {
-            Some(loss) => encoder.copy_buffer_to_buffer(&loss.partials, 0, &f.staging, 0, data_bytes),
-            None => encoder.copy_buffer_to_buffer(&f.image, 0, &f.staging, 0, data_bytes),
+            Some(loss) => encoder.copy_buffer_to_buffer(&loss.partials, 0, staging, 0, data_bytes),
+            None => encoder.copy_buffer_to_buffer(&f.image, 0, staging, 0, data_bytes),
         }
-        encoder.copy_buffer_to_buffer(&f.status, 0, &f.staging, data_bytes, status_bytes);
-        let read = ctx.submit(encoder).and_then(|_| ctx.read_staging(&f.staging, data_bytes + status_bytes));
+        encoder.copy_buffer_to_buffer(&f.status, 0, staging, data_bytes, status_bytes);
+        if grad_bytes > 0 {
+            encoder.copy_buffer_to_buffer(&f.grads, 0, staging, data_bytes + status_bytes, grad_bytes);
+        }
+        let read = ctx.submit(encoder).and_then(|_| ctx.read_staging(staging, data_bytes + status_bytes + grad_bytes));
         self.timings = match (&timer, &read) {
             (Some(t), Ok(_)) => t.read(ctx)?,
             _ => Vec::new(),
         };
         self.timer = timer;
         let bytes = read?;
-        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[data_bytes as usize..]);
+        let counters: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&bytes[data_bytes as usize..(data_bytes + status_bytes) as usize]);
+        let grads: Option<Vec<Vec2>> =
+            fused_args.map(|_| bytemuck::pod_collect_to_vec(&bytes[(data_bytes + status_bytes) as usize..]));
         if loss.is_some() {
             let tiles: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes[..data_bytes as usize]);
             let losses = f
@@ -816,7 +912,7 @@ impl GpuBackend {
                     tiles[start..start + v.raster.tile_count()].iter().map(|&x| f64::from(x)).sum()
                 })
                 .collect();
-            return Ok((Vec::new(), losses, counters));
+            return Ok(ForwardRead { images: Vec::new(), losses, counters, grads });
         }
         let pixels: &[f32] = bytemuck::cast_slice(&bytes[..data_bytes as usize]);
         let images = f
@@ -827,7 +923,47 @@ impl GpuBackend {
                 pixels[start..start + v.raster.pixel_count()].to_vec()
             })
             .collect();
-        Ok((images, Vec::new(), counters))
+        Ok(ForwardRead { images, losses: Vec::new(), counters, grads })
+    }
+
+    /// Records `edge_grad` (dispatched from `dispatch`'s arguments when given, else for the
+    /// frame's candidates × parts), `edge_sum` and `gather`.
+    fn record_backward(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &mut Option<StageTimer>,
+        partials: &Partials,
+        dispatch: Option<&wgpu::Buffer>,
+    ) -> Result<()> {
+        let ctx = &self.ctx;
+        let p = &self.pipelines;
+        let f = self.frame.as_ref().expect("a forward ran");
+        let fp = *f.params();
+        let (views, vertices) = (fp.view_count as u64, fp.vertex_count as u64);
+        {
+            let mut pass = stage_pass(encoder, timer, "edge_grad");
+            pass.set_pipeline(&p.edge_grad);
+            pass.set_bind_group(0, &partials.edge_grad, &[]);
+            match dispatch {
+                Some(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
+                None => {
+                    ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
+                }
+            }
+        }
+        {
+            let mut pass = stage_pass(encoder, timer, "edge_sum");
+            pass.set_pipeline(&p.edge_sum);
+            pass.set_bind_group(0, &partials.edge_sum, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
+        }
+        {
+            let mut pass = stage_pass(encoder, timer, "gather");
+            pass.set_pipeline(&p.gather);
+            pass.set_bind_group(0, &f.groups.gather, &[]);
+            ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
+        }
+        Ok(())
     }
 
     /// The backward of all views in one submission: `∂L/∂I` per view → `∂L/∂(screen vertex)` per
@@ -867,8 +1003,6 @@ impl GpuBackend {
             }
         }
         let (views, vertices) = (fp.view_count as u64, fp.vertex_count as u64);
-        let p = &self.pipelines;
-        let g = &f.groups;
         let mut timer = self.timer.take();
         if let Some(t) = &mut timer {
             t.clear();
@@ -879,27 +1013,7 @@ impl GpuBackend {
         for v in 0..n {
             encoder.clear_buffer(&f.status, status::index(v, status::SEGMENTS) as u64 * 4, Some(8));
         }
-        let recorded = (|| -> Result<()> {
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "edge_grad");
-                pass.set_pipeline(&p.edge_grad);
-                pass.set_bind_group(0, &partials.edge_grad, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "edge_sum");
-                pass.set_pipeline(&p.edge_sum);
-                pass.set_bind_group(0, &partials.edge_sum, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "gather");
-                pass.set_pipeline(&p.gather);
-                pass.set_bind_group(0, &g.gather, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
-            }
-            Ok(())
-        })();
+        let recorded = self.record_backward(&mut encoder, &mut timer, partials, None);
         if let Some(t) = &timer {
             t.resolve(&mut encoder);
         }

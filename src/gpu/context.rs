@@ -152,6 +152,7 @@ pub struct GpuContext {
     queue: wgpu::Queue,
     adapter: AdapterReport,
     limits: wgpu::Limits,
+    downlevel: wgpu::DownlevelCapabilities,
     errors: ErrorLog,
 }
 
@@ -223,7 +224,8 @@ impl GpuContext {
         });
 
         let limits = device.limits();
-        Ok(GpuContext { device, queue, adapter: report, limits, errors })
+        let downlevel = adapter.get_downlevel_capabilities();
+        Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors })
     }
 
     /// The adapter this context runs on.
@@ -239,6 +241,12 @@ impl GpuContext {
     /// The wgpu queue.
     pub fn queue(&self) -> &wgpu::Queue {
         &self.queue
+    }
+
+    /// Whether the device can take dispatch sizes from a buffer (`dispatch_workgroups_indirect`):
+    /// every backend but WebGL2 can.
+    pub fn supports_indirect_dispatch(&self) -> bool {
+        self.downlevel.flags.contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION)
     }
 
     /// The limits the device was opened with.
@@ -457,6 +465,14 @@ impl GpuContext {
         let size = padded_size(bytes);
         self.check_storage_size(size)?;
         self.create_buffer(label, size, storage_usage(), None)
+    }
+
+    /// A zero-filled `STORAGE | INDIRECT` buffer of at least `bytes` bytes, for dispatch arguments
+    /// a shader writes.
+    pub fn indirect_buffer(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
+        let size = padded_size(bytes);
+        self.check_storage_size(size)?;
+        self.create_buffer(label, size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT, None)
     }
 
     /// A storage buffer holding `data` (padded with zeros to a multiple of 4 bytes, at least 4),

@@ -112,8 +112,13 @@ pub struct FrameParams {
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
     /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
     pub loop_budget: u32,
+    /// Capacity of the `edge_grad` partials buffer, entries: a fused step whose candidates ×
+    /// parts exceed it skips `edge_grad` and flags [`status::PARTIALS_SHORT`].
+    pub partial_capacity: u32,
+    /// The device's `max_compute_workgroups_per_dimension`, for the indirect dispatch grid.
+    pub max_workgroups: u32,
     /// Padding to 64 bytes.
-    pub pad: [u32; 3],
+    pub pad: [u32; 1],
 }
 
 /// The frame uniform, binding 0 of every stage (keep in sync with `Frame` in
@@ -137,8 +142,10 @@ pub mod status {
     pub const CANDIDATE_TOTAL: usize = 2;
     /// Most loop iterations one invocation of `coverage` or `edge_grad` ran.
     pub const MAX_ITERATIONS: usize = 3;
+    /// 1 when a fused step skipped `edge_grad` because the partials buffer was too small.
+    pub const PARTIALS_SHORT: usize = 4;
     /// First per-view counter; view `v` has [`VIEW_STRIDE`] from `VIEW_BASE + VIEW_STRIDE·v`.
-    pub const VIEW_BASE: usize = 4;
+    pub const VIEW_BASE: usize = 5;
     /// Counters per view.
     pub const VIEW_STRIDE: usize = 5;
     /// Culled triangles (forward).

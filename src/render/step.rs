@@ -58,8 +58,9 @@ impl Renderer {
     ///
     /// The result equals `render`, `loss::squared_error` per view and `backward` in sequence. On
     /// the GPU backend it is faster: the loss and its gradient are computed on the device (the
-    /// `loss` stage) and only the vertex gradient and the per-tile loss sums come back, not the
-    /// images. The gradient there is the same as through `render`/`backward`; the loss value is
+    /// `loss` stage), the backward runs in the same submission (its size dispatched indirectly
+    /// from the candidate count), and only the vertex gradient and the per-tile loss sums come
+    /// back, not the images: one round trip per step. The gradient there is the same as through `render`/`backward`; the loss value is
     /// summed in f32 per tile before f64 across tiles (relative difference ~1e-6 from the CPU's
     /// f64 sum). Use [`Renderer::render`] when you need the images.
     ///
@@ -77,9 +78,12 @@ impl Renderer {
             let (views, params) = world_views(&self.settings, cameras)?;
             let data: Vec<&[f32]> = targets.images.iter().map(|i| i.data()).collect();
             let input = Input::World { positions: mesh.positions(), cameras: &views };
-            let readback = Readback::Loss { id: targets.id, targets: &data };
-            let out = gpu.forward(mesh.topology(), &params, input, readback)?;
-            let (screen_grads, stats) = gpu.backward(out.frame, mesh.topology(), &params, input, None)?;
+            let readback = Readback::Step { id: targets.id, targets: &data };
+            let mut out = gpu.forward(mesh.topology(), &params, input, readback)?;
+            let (screen_grads, stats) = match out.backward.take() {
+                Some(backward) => backward,
+                None => gpu.backward(out.frame, mesh.topology(), &params, input, None)?,
+            };
             self.last_backward = stats;
             let stats = params
                 .iter()
