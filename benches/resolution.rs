@@ -156,7 +156,7 @@ fn gpu_stage_profile(mesh: &Mesh) {
             println!("no timestamp queries on this adapter");
             return;
         }
-        let total: f64 = timings.iter().map(|t| t.microseconds).sum();
+        let total: f64 = timings.iter().filter(|t| !t.stage.starts_with("host")).map(|t| t.microseconds).sum();
         let stages: Vec<String> = timings.iter().map(|t| format!("{} {:.0}", t.stage, t.microseconds)).collect();
         println!("{res}²: wall {wall:.0}, GPU total {total:.0}: {}", stages.join(", "));
     }

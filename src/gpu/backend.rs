@@ -741,6 +741,7 @@ impl GpuBackend {
     /// backward), and reads back the status counters and the images or the per-view losses (and
     /// the vertex gradients).
     fn run_forward(&mut self, input: Input<'_>, readback: Readback<'_>) -> Result<ForwardRead> {
+        let started = std::time::Instant::now();
         let ctx = &self.ctx;
         let queue = ctx.queue();
         let f = self.frame.as_ref().expect("frame buffers built");
@@ -891,9 +892,23 @@ impl GpuBackend {
         if grad_bytes > 0 {
             encoder.copy_buffer_to_buffer(&f.grads, 0, staging, data_bytes + status_bytes, grad_bytes);
         }
-        let read = ctx.submit(encoder).and_then(|_| ctx.read_staging(staging, data_bytes + status_bytes + grad_bytes));
+        let recorded_at = started.elapsed();
+        let submitted = ctx.submit(encoder);
+        let submitted_at = started.elapsed();
+        let read = submitted.and_then(|_| ctx.read_staging(staging, data_bytes + status_bytes + grad_bytes));
+        let read_at = started.elapsed();
         self.timings = match (&timer, &read) {
-            (Some(t), Ok(_)) => t.read(ctx)?,
+            (Some(t), Ok(_)) => {
+                // Host time too: recording (uploads included), submitting, waiting for the results.
+                let host = |stage, d: std::time::Duration| StageTiming { stage, microseconds: d.as_secs_f64() * 1e6 };
+                let mut timings = vec![
+                    host("host: record", recorded_at),
+                    host("host: submit", submitted_at - recorded_at),
+                    host("host: wait and read", read_at - submitted_at),
+                ];
+                timings.extend(t.read(ctx)?);
+                timings
+            }
             _ => Vec::new(),
         };
         self.timer = timer;
