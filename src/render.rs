@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use crate::camera::{Camera, ViewParams};
 use crate::cpu;
 use crate::cpu::edge_grad::SegmentStats;
-use crate::gpu::backend::{GpuBackend, GpuFrame, Input, Readback};
+use crate::gpu::backend::{ForwardMode, GpuBackend, GpuFrame, Input};
 use crate::gpu::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions};
 use crate::layout::{RasterParams, ScreenVertex};
 use crate::mesh::{Mesh, Topology};
@@ -251,7 +251,7 @@ impl Renderer {
         let (views, params) = step::world_views(&self.settings, cameras)?;
         if let Engine::Gpu(gpu) = &mut self.engine {
             let input = Input::World { positions: mesh.positions(), cameras: &views };
-            let out = gpu.forward(mesh.topology(), &params, input, Readback::Images)?;
+            let out = gpu.forward(mesh.topology(), &params, input, ForwardMode::Images)?;
             let source = Source::World { positions: mesh.positions().to_vec(), views };
             return gpu_frame(mesh.topology().clone(), params, out, source, Vec::new());
         }
@@ -296,7 +296,7 @@ impl Renderer {
         }
         if let Engine::Gpu(gpu) = &mut self.engine {
             let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) = screens.into_iter().unzip();
-            let out = gpu.forward(topology, &params, Input::Screen(&screens), Readback::Images)?;
+            let out = gpu.forward(topology, &params, Input::Screen(&screens), ForwardMode::Images)?;
             return gpu_frame(topology.clone(), params, out, Source::Screen, screens);
         }
         Ok(self.forward(topology.clone(), screens, Source::Screen))

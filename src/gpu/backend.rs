@@ -52,9 +52,9 @@ pub(crate) enum Input<'a> {
     World { positions: &'a [Vec3], cameras: &'a [ViewParams] },
 }
 
-/// What a forward reads back.
+/// What a forward computes and reads back.
 #[derive(Clone, Copy)]
-pub(crate) enum Readback<'a> {
+pub(crate) enum ForwardMode<'a> {
     /// The images (the loss is computed on the host).
     Images,
     /// Not the images: the squared error against these targets (one per view, row-major, each of
@@ -67,11 +67,11 @@ pub(crate) enum Readback<'a> {
     Step { id: u64, targets: &'a [&'a [f32]] },
 }
 
-impl Readback<'_> {
+impl ForwardMode<'_> {
     fn targets(&self) -> Option<(u64, &[&[f32]])> {
         match *self {
-            Readback::Images => None,
-            Readback::Step { id, targets } => Some((id, targets)),
+            ForwardMode::Images => None,
+            ForwardMode::Step { id, targets } => Some((id, targets)),
         }
     }
 }
@@ -84,11 +84,11 @@ impl Input<'_> {
 
 /// What a forward returns.
 pub(crate) struct ForwardOutput {
-    /// One image per view, row-major (empty for [`Readback::Loss`]).
+    /// One image per view, row-major (empty for [`ForwardMode::Step`]).
     pub images: Vec<Vec<f32>>,
-    /// Squared error per view (for [`Readback::Step`]; empty otherwise).
+    /// Squared error per view (for [`ForwardMode::Step`]; empty otherwise).
     pub losses: Vec<f64>,
-    /// For [`Readback::Step`]: `∂L/∂(screen vertex)` per view and the segment counts, when the
+    /// For [`ForwardMode::Step`]: `∂L/∂(screen vertex)` per view and the segment counts, when the
     /// backward ran in the same submission (`None`: run [`GpuBackend::backward`] with no image
     /// gradients).
     pub backward: Option<(Vec<Vec<Vec2>>, Vec<SegmentStats>)>,
@@ -219,7 +219,7 @@ struct Partials {
     edge_sum: wgpu::BindGroup,
 }
 
-/// The targets of [`Readback::Loss`], the per-tile sums and the `loss` bind group (made on the
+/// The targets of [`ForwardMode::Step`], the per-tile sums and the `loss` bind group (made on the
 /// first loss forward of a frame shape).
 struct LossBuffers {
     target: wgpu::Buffer,
@@ -449,7 +449,7 @@ impl GpuBackend {
         topology: &Arc<Topology>,
         params: &[RasterParams],
         input: Input<'_>,
-        readback: Readback<'_>,
+        mode: ForwardMode<'_>,
     ) -> Result<ForwardOutput> {
         let n = params.len();
         if n == 0 {
@@ -485,13 +485,13 @@ impl GpuBackend {
             let frame = self.frame.as_mut().expect("built above");
             // Settings (inside/outside) may change between frames of one shape.
             frame.uniform.views[..n].copy_from_slice(&layout.views);
-            if let Some((id, targets)) = readback.targets() {
+            if let Some((id, targets)) = mode.targets() {
                 self.ensure_loss(id, targets)?;
             }
-            if matches!(readback, Readback::Step { .. }) {
+            if matches!(mode, ForwardMode::Step { .. }) {
                 self.ensure_partials()?;
             }
-            let read = self.run_forward(input, readback)?;
+            let read = self.run_forward(input, mode)?;
             let (images, losses, counters) = (read.images, read.losses, read.counters);
             let frame = self.frame.as_ref().expect("built above");
             if counters[status::OVERFLOW] != 0 {
@@ -737,10 +737,10 @@ impl GpuBackend {
         })
     }
 
-    /// Uploads the inputs, records and submits the forward (and, for [`Readback::Step`], the
+    /// Uploads the inputs, records and submits the forward (and, for [`ForwardMode::Step`], the
     /// backward), and reads back the status counters and the images or the per-view losses (and
     /// the vertex gradients).
-    fn run_forward(&mut self, input: Input<'_>, readback: Readback<'_>) -> Result<ForwardRead> {
+    fn run_forward(&mut self, input: Input<'_>, mode: ForwardMode<'_>) -> Result<ForwardRead> {
         let started = std::time::Instant::now();
         let ctx = &self.ctx;
         let queue = ctx.queue();
@@ -772,8 +772,8 @@ impl GpuBackend {
         let p = &self.pipelines;
         let g = &f.groups;
         // The fused step's `args` bind group, when this forward also runs the backward.
-        let fused_args = match readback {
-            Readback::Step { .. } if f.loss.is_some() && f.partials.is_some() => g.edge_grad_args.as_ref(),
+        let fused_args = match mode {
+            ForwardMode::Step { .. } if f.loss.is_some() && f.partials.is_some() => g.edge_grad_args.as_ref(),
             _ => None,
         };
         let mut timer = self.timer.take();
@@ -843,7 +843,7 @@ impl GpuBackend {
                 pass.set_bind_group(0, &g.edges, &[]);
                 ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
             }
-            if let (Some(_), Some(loss)) = (readback.targets(), &f.loss) {
+            if let (Some(_), Some(loss)) = (mode.targets(), &f.loss) {
                 let mut pass = stage_pass(&mut encoder, &mut timer, "loss");
                 pass.set_pipeline(&p.loss);
                 pass.set_bind_group(0, &loss.group, &[]);
@@ -873,7 +873,7 @@ impl GpuBackend {
         }
         // The staging buffer gets the images (or the per-tile losses), then the status counters
         // (then, fused, the vertex gradients).
-        let loss = readback.targets().and(f.loss.as_ref());
+        let loss = mode.targets().and(f.loss.as_ref());
         let data_bytes = match loss {
             Some(_) => params.total_tiles as u64 * 4,
             None => params.total_pixels as u64 * 4,
@@ -1003,7 +1003,7 @@ impl GpuBackend {
                     "the GPU no longer holds this frame's loss gradient (another forward ran since)".into(),
                 ));
             }
-            self.forward(topology, params, input, Readback::Images)?;
+            self.forward(topology, params, input, ForwardMode::Images)?;
         }
         self.ensure_partials()?;
         let ctx = &self.ctx;

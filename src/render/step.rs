@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 
 use super::{Engine, Renderer};
-use crate::gpu::backend::{Input, Readback};
+use crate::gpu::backend::{ForwardMode, Input};
 use crate::{loss, Camera, Error, Image, Mesh, RenderStats, Result};
 
 static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
@@ -78,8 +78,8 @@ impl Renderer {
             let (views, params) = world_views(&self.settings, cameras)?;
             let data: Vec<&[f32]> = targets.images.iter().map(|i| i.data()).collect();
             let input = Input::World { positions: mesh.positions(), cameras: &views };
-            let readback = Readback::Step { id: targets.id, targets: &data };
-            let mut out = gpu.forward(mesh.topology(), &params, input, readback)?;
+            let mode = ForwardMode::Step { id: targets.id, targets: &data };
+            let mut out = gpu.forward(mesh.topology(), &params, input, mode)?;
             let (screen_grads, stats) = match out.backward.take() {
                 Some(backward) => backward,
                 None => gpu.backward(out.frame, mesh.topology(), &params, input, None)?,
