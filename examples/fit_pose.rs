@@ -7,11 +7,12 @@
 //! ```
 //!
 //! A random plausible ground-truth pose is drawn from the seed, its silhouettes rendered from
-//! `--views` cameras around the model, and the pose fitted with `E = E_sl + λ·E_spt` and Adam,
-//! by the method of `diffsil::fit` (`PoseFit::run`): three starting poses (rest, and the legs
-//! in a stride each way) tried for a few steps on blurred silhouettes, the lowest-energy one kept
-//! and refined coarse to fine, the blur shrinking to none. `--plain` fits from the rest pose
-//! without blur instead (the paper's plain descent). Pictures go to `--out`: per view,
+//! `--views` cameras around the model, and the pose fitted with
+//! `E = E_sl + λ·E_spt + μ·E_prior` and Adam, by the method of `diffsil::fit` (`PoseFit::run`):
+//! three starting poses (rest, and the legs in a stride each way) tried for a few steps on
+//! blurred silhouettes, the lowest-energy one kept and refined coarse to fine, the blur shrinking
+//! to none, with a zero-mean prior on the joint offsets. `--plain` fits from the rest pose without
+//! blur or prior instead (the paper's plain descent). Pictures go to `--out`: per view,
 //! target | fitted | difference, before (top) and after (bottom). The last line is
 //! machine-readable.
 
@@ -39,18 +40,20 @@ options:
   --lambda X         self-intersection weight λ; E_sl is a mean over pixels (default 1e-7)
   --stride X         leg stride (radians) of the two extra starting poses; 0: rest pose only
                      (default 0.3)
-  --plain            plain descent: rest pose only, no blur (the paper's method)
+  --prior X          weight μ of the pose prior μ·mean_j |θ_j|² (default 1e-3)
+  --plain            plain descent: rest pose only, no blur, no prior (the paper's method)
   --seed N           seed of the ground-truth pose (default 1)
   --backend NAME     cpu, gpu or auto (default cpu)
   --out DIR          where the PNGs go (default fit_pose_out)
   --ablation N       run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
   -h, --help         this text
 
-method (diffsil::fit, PoseFit::run): E_sl is the mean squared error over all pixels of all
-views, between the rendered and target silhouettes blurred by the same Gaussian. Each of the
-three starting poses runs 1/10 of the steps with a blur of 6% of the image height; the one with
-the lowest unblurred energy E continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of
-300) unblurred. Same method and settings at every resolution and F.";
+method (diffsil::fit, PoseFit::run): E = E_sl + λ·E_spt + μ·E_prior, where E_sl is the mean
+squared error over all pixels of all views between the rendered and target silhouettes, both
+blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on the joint offsets.
+Each of the three starting poses runs 1/10 of the steps with a blur of 6% of the image height;
+the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%, 1/12 at 3%, the
+rest (170 of 300) unblurred. Same method and settings at every resolution and F.";
 
 #[derive(Clone, Debug)]
 struct Options {
@@ -66,6 +69,7 @@ struct Options {
     out: PathBuf,
     ablation: Option<u32>,
     stride: f32,
+    prior: f32,
     plain: bool,
 }
 
@@ -83,6 +87,7 @@ fn parse() -> Result<Options, String> {
         out: "fit_pose_out".into(),
         ablation: None,
         stride: 0.3,
+        prior: PoseFit::POSE_PRIOR,
         plain: false,
     };
     let mut args = std::env::args().skip(1);
@@ -110,6 +115,7 @@ fn parse() -> Result<Options, String> {
             "--out" => o.out = value.into(),
             "--ablation" => o.ablation = Some(value.parse().map_err(|e| bad(&e))?),
             "--stride" => o.stride = value.parse().map_err(|e| bad(&e))?,
+            "--prior" => o.prior = value.parse().map_err(|e| bad(&e))?,
             _ => return Err(format!("unknown option {flag} (see --help)")),
         }
     }
@@ -168,6 +174,7 @@ fn fit(model: &SkinnedMesh, o: &Options, pictures: bool, quiet: bool) -> Result<
     let mut fit = PoseFit::new(model.clone(), cameras, targets.clone(), renderer, &rest, o.lr, o.lambda)?;
     let backend = fit.renderer().backend_name();
     let before = if pictures { Some(fit.render()?) } else { None };
+    fit.set_pose_prior(if o.plain { 0.0 } else { o.prior })?;
     let (schedule, hypotheses) = if o.plain {
         (Schedule { hypothesis_steps: 0, stages: vec![Stage { blur: 0.0, steps: o.iterations }] }, vec![rest])
     } else {

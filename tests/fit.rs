@@ -85,6 +85,41 @@ fn energy_is_zero_at_the_truth_and_blur_is_validated() {
 }
 
 #[test]
+fn the_pose_prior_adds_to_the_energy_and_pulls_offsets_to_rest() {
+    let model = builtin_figure();
+    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let truth = random_pose(&limits, 30f32.to_radians(), 5);
+    let cameras = framing_cameras(&model.mesh, 2, 24);
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let targets = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &truth, 0.01, 0.0).unwrap();
+    assert!(matches!(fit.set_pose_prior(-1.0), Err(Error::InvalidSettings(_))));
+    assert!(fit.set_pose_prior(f32::NAN).is_err());
+    fit.set_pose_prior(0.5).unwrap();
+    // E_prior is the mean over joints of |θ_j|².
+    let expected: f64 =
+        truth.joint_rotations.iter().map(|r| r.length_squared() as f64).sum::<f64>() / model.joint_count() as f64;
+    assert!(
+        (fit.energy().unwrap() - 0.5 * expected).abs() < 1e-6 * expected,
+        "{} vs {expected}",
+        fit.energy().unwrap()
+    );
+    // At the truth the silhouettes agree, so the first step follows the prior alone: Adam moves
+    // every non-zero offset by the learning rate toward zero (up to its ε), and the rest stays.
+    let report = fit.step().unwrap();
+    assert_eq!(report.silhouette, 0.0);
+    assert!((report.pose_prior - expected).abs() < 1e-6 * expected);
+    for (after, before) in fit.pose().joint_rotations.iter().zip(&truth.joint_rotations) {
+        for k in 0..3 {
+            let (a, b) = (after[k], before[k]);
+            let expected = if b == 0.0 { 0.0 } else { b - 0.01 * b.signum() };
+            assert!((a - expected).abs() < 1e-4, "{b} → {a}");
+        }
+    }
+    assert_eq!(fit.pose().orientation, truth.orientation);
+}
+
+#[test]
 fn default_schedule_splits_the_steps() {
     let s = Schedule::coarse_to_fine(300, 3);
     assert_eq!(s.hypothesis_steps, 30);
