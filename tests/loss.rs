@@ -1,6 +1,8 @@
 //! Tests of `diffsil::loss`: values on hand examples, gradients against finite differences.
 
-use diffsil::loss::{soft_iou, soft_iou_views, squared_error, squared_error_views, LossOutput};
+use diffsil::loss::{
+    blurred_squared_error, soft_iou, soft_iou_views, squared_error, squared_error_views, GaussianBlur, LossOutput,
+};
 use diffsil::{Error, Image, Result};
 
 fn img(w: u32, h: u32, data: &[f32]) -> Image {
@@ -158,4 +160,70 @@ fn multi_view_helpers() {
         Err(Error::SizeMismatch { .. })
     ));
     assert_eq!(soft_iou_views(&[], &[]).unwrap(), (0.0, vec![]));
+}
+
+#[test]
+fn gaussian_blur_is_normalised_symmetric_and_self_adjoint() {
+    // σ = 0 is the identity.
+    let x = img(9, 7, &values(63, 11));
+    assert_eq!(GaussianBlur::new(0.0).unwrap().apply(&x), x);
+    let blur = GaussianBlur::new(1.5).unwrap();
+    assert_eq!(blur.sigma(), 1.5);
+    // A point far from the borders keeps its mass and spreads symmetrically.
+    let mut point = vec![0.0f32; 21 * 21];
+    point[10 * 21 + 10] = 1.0;
+    let spread = blur.apply(&img(21, 21, &point));
+    let mass: f64 = spread.data().iter().map(|&v| v as f64).sum();
+    assert!((mass - 1.0).abs() < 1e-5, "{mass}");
+    assert!((spread.get(10, 7) - spread.get(10, 13)).abs() < 1e-7);
+    assert!((spread.get(7, 10) - spread.get(10, 7)).abs() < 1e-7);
+    assert!(spread.get(10, 10) > spread.get(10, 11) && spread.get(10, 11) > spread.get(10, 12));
+    // ⟨G x, y⟩ = ⟨x, G y⟩ (zero padding keeps the filter symmetric at the borders too).
+    let y = img(9, 7, &values(63, 12));
+    let dot = |a: &Image, b: &Image| a.data().iter().zip(b.data()).map(|(&p, &q)| p as f64 * q as f64).sum::<f64>();
+    let (gx, gy) = (blur.apply(&x), blur.apply(&y));
+    assert!((dot(&gx, &y) - dot(&x, &gy)).abs() < 1e-5, "{} vs {}", dot(&gx, &y), dot(&x, &gy));
+    // Degenerate sizes and bad σ.
+    assert_eq!(blur.apply(&Image::filled(0, 0, 0.0)).data().len(), 0);
+    assert_eq!(blur.apply(&Image::filled(1, 1, 2.0)).data().len(), 1);
+    for bad in [-1.0, f32::NAN, f32::INFINITY, 5000.0] {
+        assert!(matches!(GaussianBlur::new(bad), Err(Error::InvalidSettings(_))), "σ = {bad}");
+    }
+}
+
+fn blurred_by_1_3(image: &Image, target: &Image) -> Result<LossOutput> {
+    let blur = GaussianBlur::new(1.3).unwrap();
+    blurred_squared_error(image, &blur.apply(target), &blur)
+}
+
+#[test]
+fn blurred_squared_error_gradient_matches_finite_differences() {
+    let (w, h) = (6, 5);
+    let base = values(w * h, 21);
+    let target = img(w as u32, h as u32, &values(w * h, 22));
+    let out = blurred_by_1_3(&img(w as u32, h as u32, &base), &target).unwrap();
+    // The loss is quadratic in the image, so central differences are exact up to rounding:
+    // a large step keeps the f32 rounding of the blurred images small against it.
+    let eps = 1.0 / 16.0;
+    for k in 0..base.len() {
+        let (mut plus, mut minus) = (base.clone(), base.clone());
+        plus[k] += eps;
+        minus[k] -= eps;
+        let lp = blurred_by_1_3(&img(w as u32, h as u32, &plus), &target).unwrap().value;
+        let lm = blurred_by_1_3(&img(w as u32, h as u32, &minus), &target).unwrap().value;
+        let fd = (lp - lm) / (2.0 * eps as f64);
+        let g = out.grad.data()[k] as f64;
+        assert!((fd - g).abs() <= 1e-4 * (1.0 + g.abs()), "pixel {k}: analytic {g}, finite difference {fd}");
+    }
+    // No blur: the plain squared error.
+    let i = img(w as u32, h as u32, &base);
+    assert_eq!(
+        blurred_squared_error(&i, &target, &GaussianBlur::identity()).unwrap(),
+        squared_error(&i, &target).unwrap()
+    );
+    // Sizes must match.
+    assert!(matches!(
+        blurred_squared_error(&Image::filled(3, 2, 0.0), &Image::filled(2, 3, 0.0), &GaussianBlur::identity()),
+        Err(Error::SizeMismatch { .. })
+    ));
 }
