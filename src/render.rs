@@ -322,7 +322,7 @@ impl Renderer {
             let (state, image) = cpu::forward_view(params, screen, &topology);
             stats.push(RenderStats {
                 culled_triangles: state.culled_triangles,
-                candidate_edges: state.sides.iter().filter(|&&s| s != 0).count() as u32,
+                candidate_edges: state.candidates.len() as u32,
                 tile_size: state.params.tile_size,
             });
             images.push(Image::from_vec(params.width, params.height, image).expect("image sized by the raster"));

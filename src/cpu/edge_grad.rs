@@ -11,7 +11,7 @@
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::bin::Bins;
+use super::bin::{self, Bins};
 use crate::closed_form::{clip_parameter, segment_weights};
 use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::mesh::Topology;
@@ -73,33 +73,39 @@ fn occluded_interval(q: [DVec2; 3], va: DVec2, vb: DVec2, outward: DVec2, sa: f6
     Some((lo, hi))
 }
 
-/// The gradient slot of one candidate edge. `inside` is the edge's side from the `edges` stage.
-#[allow(clippy::too_many_arguments)]
-pub fn edge_gradient(
-    params: &RasterParams,
-    screen: &[ScreenVertex],
-    triangles: &[[u32; 3]],
-    bins: &Bins,
-    d_image: &[f32],
-    edge: [u32; 2],
-    inside: i32,
-    scratch: &mut Vec<(f64, f64)>,
-) -> (EdgeGrad, SegmentStats) {
-    let mut stats = SegmentStats::default();
+/// One piece of a candidate edge: its part in one pixel with a non-zero incoming gradient.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    /// Tile of the pixel (row-major tiles of `tile_size` pixels), then its list in the bins.
+    tile: u32,
+    /// Parameter interval of the edge inside the pixel.
+    s: (f64, f64),
+    /// `∂L/∂I` of the pixel times `p1 − p0` (halved for a segment on a pixel border).
+    g: f64,
+}
+
+/// The edge's endpoints, and whether it can contribute: a candidate (`inside != 0`) of non-zero
+/// length.
+fn edge_geometry(screen: &[ScreenVertex], edge: [u32; 2], inside: i32) -> Option<(DVec2, DVec2, DVec2)> {
     let (va, vb) = (position(screen, edge[0]), position(screen, edge[1]));
     let d = vb - va;
     if inside == 0 || d == DVec2::ZERO {
-        return (EdgeGrad::default(), stats);
+        return None;
     }
     // Outward normal times the edge length: the flux direction of DESIGN.md §2.
-    let outward = inside as f64 * DVec2::new(d.y, -d.x);
+    Some((va, vb, inside as f64 * DVec2::new(d.y, -d.x)))
+}
+
+/// Appends the segments of `va → vb` in the pixels it crosses with a non-zero `∂L/∂I`, in walk
+/// order: the rows it spans, then the columns within each row, each clipped by Liang–Barsky.
+fn edge_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, out: &mut Vec<Segment>) {
+    let d = vb - va;
     let (w, h) = (params.width as f64, params.height as f64);
     let mut s = (0.0, 1.0);
     if !(clip_parameter(va.x, d.x, 0.0, w, &mut s) && clip_parameter(va.y, d.y, 0.0, h, &mut s)) {
-        return (EdgeGrad::default(), stats);
+        return;
     }
     let scale = (params.inside - params.outside) as f64;
-    let (mut wa, mut wb) = (0.0f64, 0.0f64);
     let y_at = |t: f64| va.y + t * d.y;
     let (ylo, yhi) = (y_at(s.0).min(y_at(s.1)), y_at(s.0).max(y_at(s.1)));
     let rows = (ylo.ceil() as i64 - 1).max(0)..=(yhi.floor() as i64).min(params.height as i64 - 1);
@@ -126,67 +132,145 @@ pub fn edge_gradient(
             if g == 0.0 {
                 continue;
             }
-            stats.segments += 1;
             let tile = (i as u32 / params.tile_size) * params.tiles_x + j as u32 / params.tile_size;
-            let (bb_lo, bb_hi) = (va + c.0 * d, va + c.1 * d);
-            let (bb_lo, bb_hi) = (bb_lo.min(bb_hi), bb_lo.max(bb_hi));
-            scratch.clear();
-            for (t, b) in bins.tile(tile as usize) {
-                if b[0] as f64 > bb_hi.x || b[1] as f64 > bb_hi.y || (b[2] as f64) < bb_lo.x || (b[3] as f64) < bb_lo.y
-                {
-                    continue;
-                }
-                let q = triangles[t as usize].map(|v| position(screen, v));
-                if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
-                    scratch.push(iv);
-                }
-            }
-            scratch.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-            let (mut visible_a, mut visible_b, mut cursor) = (0.0, 0.0, c.0);
-            for &(lo, hi) in scratch.iter().chain(std::iter::once(&(c.1, c.1))) {
-                if lo > cursor {
-                    let [ka, kb] = segment_weights(cursor, lo);
-                    visible_a += ka;
-                    visible_b += kb;
-                }
-                cursor = cursor.max(hi);
-            }
-            if visible_a != 0.0 || visible_b != 0.0 {
-                stats.visible_segments += 1;
-            }
-            wa += g * visible_a;
-            wb += g * visible_b;
+            out.push(Segment { tile, s: c, g });
         }
     }
+}
+
+/// Endpoint weights `[∫(1 − s), ∫s]` over the visible part of `segment`: the parts of its
+/// parameter interval whose outside is covered by no triangle of its tile's list.
+#[allow(clippy::too_many_arguments)]
+fn visible_weights(
+    screen: &[ScreenVertex],
+    triangles: &[[u32; 3]],
+    bins: &Bins,
+    (va, vb, outward): (DVec2, DVec2, DVec2),
+    segment: &Segment,
+    scratch: &mut Vec<(f64, f64)>,
+) -> (f64, f64) {
+    let c = segment.s;
+    let d = vb - va;
+    let (bb_lo, bb_hi) = (va + c.0 * d, va + c.1 * d);
+    let (bb_lo, bb_hi) = (bb_lo.min(bb_hi), bb_lo.max(bb_hi));
+    scratch.clear();
+    for (t, b) in bins.tile(segment.tile as usize) {
+        if b[0] as f64 > bb_hi.x || b[1] as f64 > bb_hi.y || (b[2] as f64) < bb_lo.x || (b[3] as f64) < bb_lo.y {
+            continue;
+        }
+        let q = triangles[t as usize].map(|v| position(screen, v));
+        if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
+            scratch.push(iv);
+        }
+    }
+    scratch.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let (mut visible_a, mut visible_b, mut cursor) = (0.0, 0.0, c.0);
+    for &(lo, hi) in scratch.iter().chain(std::iter::once(&(c.1, c.1))) {
+        if lo > cursor {
+            let [ka, kb] = segment_weights(cursor, lo);
+            visible_a += ka;
+            visible_b += kb;
+        }
+        cursor = cursor.max(hi);
+    }
+    (visible_a, visible_b)
+}
+
+/// Sums the visible weights of an edge's segments (in walk order) into its slot.
+fn accumulate(
+    screen: &[ScreenVertex],
+    triangles: &[[u32; 3]],
+    bins: &Bins,
+    geometry: (DVec2, DVec2, DVec2),
+    segments: &[Segment],
+    scratch: &mut Vec<(f64, f64)>,
+) -> (EdgeGrad, SegmentStats) {
+    let mut stats = SegmentStats::default();
+    let (mut wa, mut wb) = (0.0f64, 0.0f64);
+    for segment in segments {
+        stats.segments += 1;
+        let (visible_a, visible_b) = visible_weights(screen, triangles, bins, geometry, segment, scratch);
+        if visible_a != 0.0 || visible_b != 0.0 {
+            stats.visible_segments += 1;
+        }
+        wa += segment.g * visible_a;
+        wb += segment.g * visible_b;
+    }
+    let outward = geometry.2;
     let (ga, gb) = (outward * wa, outward * wb);
     (EdgeGrad { a: [ga.x as f32, ga.y as f32], b: [gb.x as f32, gb.y as f32] }, stats)
 }
 
-/// Runs [`edge_gradient`] for every candidate edge. Reads screen vertices, triangles, bins, edge
-/// sides and `∂L/∂I`; writes one [`EdgeGrad`] slot per edge (zero for non-candidates).
+/// Candidate edges per parallel task.
+const EDGES_PER_TASK: usize = 64;
+
+/// The gradient slot of every candidate edge: walks the pixels it crosses, keeps the visible
+/// parts of its segments and applies the closed form. Occluder lists are built only for the tiles
+/// the edges cross with a non-zero `∂L/∂I` (the CPU's lazy form of the `bin` stage: most tiles
+/// hold no silhouette, and where `∂L/∂I` is zero nothing is looked up).
+///
+/// Reads screen and snapped vertices, triangles, the candidates `(edge, side)` of the `edges`
+/// stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
+/// The result is the same as with the full bins of [`bin::bin`](super::bin::bin): an occluder
+/// of a segment overlaps its tile, so it is in that tile's list either way.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_grad(
     params: &RasterParams,
     screen: &[ScreenVertex],
+    snapped: &[[i32; 2]],
     topology: &Topology,
-    sides: &[i32],
-    bins: &Bins,
+    candidates: &[(u32, i32)],
     d_image: &[f32],
-    slots: &mut [EdgeGrad],
+    slots: &mut Vec<EdgeGrad>,
 ) -> SegmentStats {
     let edges = topology.edges();
-    slots
-        .par_iter_mut()
-        .with_min_len(256)
-        .enumerate()
-        .map_init(Vec::new, |scratch, (e, slot)| {
-            let (grad, stats) = if sides[e] == 0 {
-                (EdgeGrad::default(), SegmentStats::default())
-            } else {
-                edge_gradient(params, screen, topology.triangles(), bins, d_image, edges[e], sides[e], scratch)
-            };
-            *slot = grad;
-            stats
+    let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
+    // Walk every candidate edge once: its segments, grouped per task in candidate order.
+    let mut walks: Vec<(Vec<Segment>, Vec<u32>)> = candidates
+        .par_chunks(EDGES_PER_TASK)
+        .map(|chunk| {
+            let (mut segments, mut ends) = (Vec::new(), Vec::with_capacity(chunk.len()));
+            for candidate in chunk {
+                if let Some((va, vb, _)) = geometry(candidate) {
+                    edge_segments(params, d_image, va, vb, &mut segments);
+                }
+                ends.push(segments.len() as u32);
+            }
+            (segments, ends)
         })
-        .reduce(SegmentStats::default, |a, b| a + b)
+        .collect();
+    // Number the tiles that hold a segment (segments then address their tile by that number),
+    // and list the triangles of those tiles only.
+    let mut tile_slots = vec![u32::MAX; params.tile_count()];
+    let mut tiles = 0u32;
+    for (segments, _) in &mut walks {
+        for segment in segments {
+            let slot = &mut tile_slots[segment.tile as usize];
+            if *slot == u32::MAX {
+                *slot = tiles;
+                tiles += 1;
+            }
+            segment.tile = *slot;
+        }
+    }
+    let mut bins = Bins::default();
+    bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize, &mut bins);
+    let triangles = topology.triangles();
+    let mut results = vec![(EdgeGrad::default(), SegmentStats::default()); candidates.len()];
+    results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
+        |((out, chunk), (segments, ends))| {
+            let mut scratch = Vec::new();
+            let mut start = 0;
+            for ((result, candidate), &end) in out.iter_mut().zip(chunk).zip(ends) {
+                let pieces = &segments[start..end as usize];
+                start = end as usize;
+                if let Some(g) = geometry(candidate) {
+                    *result = accumulate(screen, triangles, &bins, g, pieces, &mut scratch);
+                }
+            }
+        },
+    );
+    slots.clear();
+    slots.extend(results.iter().map(|r| r.0));
+    results.iter().fold(SegmentStats::default(), |a, r| a + r.1)
 }

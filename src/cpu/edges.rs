@@ -65,10 +65,13 @@ pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
     }
 }
 
-/// Classifies every edge of the topology. Reads the face orientations; writes `sides` (one per
-/// edge).
-pub fn edges(orientation: &[i8], topology: &Topology, sides: &mut [i32]) {
-    sides.par_iter_mut().with_min_len(4096).enumerate().for_each(|(e, side)| {
-        *side = edge_side(orientation, topology, e);
-    });
+/// Classifies every edge of the topology. Reads the face orientations; writes the candidates
+/// `(edge, side)` in edge order into `candidates` (the WGSL stage writes a side per edge instead;
+/// the non-candidates are the edges left out here).
+pub fn edges(orientation: &[i8], topology: &Topology, candidates: &mut Vec<(u32, i32)>) {
+    candidates.clear();
+    candidates.par_extend((0..topology.edges().len()).into_par_iter().with_min_len(4096).filter_map(|e| {
+        let side = edge_side(orientation, topology, e);
+        (side != 0).then_some((e as u32, side))
+    }));
 }
