@@ -45,15 +45,17 @@ pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orient
 /// is not a candidate. A face `(.., a, b, ..)` that runs `a → b` lies on the side of its own
 /// orientation; one that runs `b → a` on the other.
 pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
-    let [a, b] = topology.edges()[edge];
+    let range = topology.edge_face_offsets()[edge] as usize..topology.edge_face_offsets()[edge + 1] as usize;
+    side_of(orientation, &topology.edge_face_list()[range.clone()], &topology.edge_face_forward()[range])
+}
+
+/// [`edge_side`] from the edge's faces and whether each runs along it (`a → b`).
+#[inline(always)]
+fn side_of(orientation: &[i8], faces: &[u32], forward: &[bool]) -> i32 {
     let (mut left, mut right) = (false, false);
-    for &face in topology.edge_faces(edge) {
-        let o = orientation[face as usize];
-        if o == 0 {
-            continue; // culled or degenerate: covers nothing on either side
-        }
-        let tri = topology.triangles()[face as usize];
-        let forward = (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b);
+    for (&face, &forward) in faces.iter().zip(forward) {
+        // 0 (culled or degenerate) covers nothing on either side.
+        let o = orientation[face as usize] as i32;
         let side = if forward { o } else { -o };
         left |= side > 0;
         right |= side < 0;
@@ -65,13 +67,32 @@ pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
     }
 }
 
+/// Edges per parallel task of [`edges`].
+const EDGES_PER_TASK: usize = 8192;
+
 /// Classifies every edge of the topology. Reads the face orientations; writes the candidates
 /// `(edge, side)` in edge order into `candidates` (the WGSL stage writes a side per edge instead;
 /// the non-candidates are the edges left out here).
 pub fn edges(orientation: &[i8], topology: &Topology, candidates: &mut Vec<(u32, i32)>) {
+    let (offsets, faces, forward) =
+        (topology.edge_face_offsets(), topology.edge_face_list(), topology.edge_face_forward());
+    let edge_count = topology.edges().len();
+    let parts: Vec<Vec<(u32, i32)>> = (0..edge_count.div_ceil(EDGES_PER_TASK))
+        .into_par_iter()
+        .map(|task| {
+            let mut part = Vec::new();
+            for e in task * EDGES_PER_TASK..((task + 1) * EDGES_PER_TASK).min(edge_count) {
+                let range = offsets[e] as usize..offsets[e + 1] as usize;
+                let side = side_of(orientation, &faces[range.clone()], &forward[range]);
+                if side != 0 {
+                    part.push((e as u32, side));
+                }
+            }
+            part
+        })
+        .collect();
     candidates.clear();
-    candidates.par_extend((0..topology.edges().len()).into_par_iter().with_min_len(4096).filter_map(|e| {
-        let side = edge_side(orientation, topology, e);
-        (side != 0).then_some((e as u32, side))
-    }));
+    for part in parts {
+        candidates.extend(part);
+    }
 }
