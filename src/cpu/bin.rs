@@ -112,10 +112,17 @@ pub fn choose_tile_size(params: &RasterParams, snapped: &[[i32; 2]], triangles: 
                 let c = v.map(|p| p[k] as i64);
                 c[0].max(c[1]).max(c[2]) - c[0].min(c[1]).min(c[2])
             };
-            Some((extent(0).max(extent(1)).min(limit), 1u64))
+            Some((extent(0).max(extent(1)).min(limit) as u64, 1u64))
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    let mean = if count == 0 { 1.0 } else { sum as f64 / count as f64 / params.units as f64 };
+    tile_size(params, sum, count)
+}
+
+/// The tile side [`choose_tile_size`] picks from the sum of the capped extents (units) of the
+/// `count` non-culled triangles (which the CPU `coverage` pass adds up on its way,
+/// [`TriangleSummary`](super::coverage::TriangleSummary)).
+pub fn tile_size(params: &RasterParams, extent_sum: u64, count: u64) -> u32 {
+    let mean = if count == 0 { 1.0 } else { extent_sum as f64 / count as f64 / params.units as f64 };
     ((2.0 * mean).ceil().max(1.0) as u32).next_power_of_two().clamp(1, 64)
 }
 

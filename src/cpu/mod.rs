@@ -7,7 +7,8 @@
 //! Backward: [`edge_grad`](edge_grad::edge_grad) (which bins, with [`bin::bin_tiles`], only the tiles
 //! its segments need) → [`gather`](gather::gather).
 //!
-//! The forward chooses the tile size ([`bin::choose_tile_size`]) but builds no tile lists: only the
+//! The forward chooses the tile size (as [`bin::choose_tile_size`] does, from the extents the
+//! coverage pass adds up) but builds no tile lists: only the
 //! backward uses them, and only in the few tiles a silhouette with a non-zero `∂L/∂I` crosses.
 
 pub mod bin;
@@ -44,17 +45,17 @@ pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topolog
     let triangles = topology.triangles();
     let mut snapped = vec![[0; 2]; screen.len()];
     project::snap(&params, &screen, &mut snapped);
-    params.set_tile_size(bin::choose_tile_size(&params, &snapped, triangles));
-    let culled_triangles = bin::culled_triangles(&screen, triangles);
+    let skip = coverage::BackFaceSkip::new(topology, &snapped);
     let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-    coverage::coverage(&params, &snapped, triangles, &mut masks);
+    let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
+    params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
     let mut image = vec![0.0; params.pixel_count()];
     resolve::resolve(&params, &masks, &mut image);
     let mut orientation = vec![0i8; triangles.len()];
     edges::face_orientations(&screen, triangles, &mut orientation);
     let mut candidates = Vec::new();
     edges::edges(&orientation, topology, &mut candidates);
-    (ViewState { params, screen, snapped, candidates, culled_triangles }, image)
+    (ViewState { params, screen, snapped, candidates, culled_triangles: summary.culled }, image)
 }
 
 /// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.
