@@ -17,17 +17,25 @@ pub struct Bins {
     pub offsets: Vec<u32>,
     /// Triangle indices, grouped by tile.
     pub triangles: Vec<u32>,
-    /// The float bounding box `[xmin, ymin, xmax, ymax]` of each entry of `triangles`, beside it
-    /// so the `edge_grad` stage scans a tile without touching vertices (a CPU-side cache; the
-    /// WGSL stage reads the vertices).
+    /// The float bounding box of each entry of `triangles` as `[xmin, ymin, −xmax, −ymax]` (so
+    /// that one four-lane `>` tells that it misses a box), beside it so the `edge_grad` stage
+    /// scans a tile without touching vertices (a CPU-side cache; the WGSL stage reads the
+    /// vertices).
     pub boxes: Vec<[f32; 4]>,
+    /// The screen positions of each entry's vertices (a CPU-side cache, like `boxes`).
+    pub vertices: Vec<[[f32; 2]; 3]>,
 }
 
 impl Bins {
-    /// Entries `(triangle, bounding box)` of tile `t`.
-    pub fn tile(&self, t: usize) -> impl Iterator<Item = (u32, &[f32; 4])> {
+    /// Entries `(triangle, box, vertices)` of tile `t`.
+    pub fn tile(&self, t: usize) -> impl Iterator<Item = (u32, &[f32; 4], &[[f32; 2]; 3])> {
         let range = self.offsets[t] as usize..self.offsets[t + 1] as usize;
-        self.triangles[range.clone()].iter().copied().zip(&self.boxes[range])
+        self.triangles[range.clone()]
+            .iter()
+            .copied()
+            .zip(&self.boxes[range.clone()])
+            .zip(&self.vertices[range])
+            .map(|((t, b), v)| (t, b, v))
     }
 }
 
@@ -41,14 +49,12 @@ pub fn triangle_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]
 /// units is a power of two, as it is for F = 1, 2, 4, 8, 16).
 #[derive(Clone, Copy, Debug)]
 struct TileRange {
-    /// Fixed-point units per pixel.
-    units: i64,
+    /// Image width and height in fixed-point units.
+    limit: [i64; 2],
     /// Fixed-point units per tile side.
     tile_units: u64,
     /// `log2(tile_units)` when it is a power of two.
     shift: Option<u32>,
-    /// Image size, pixels.
-    size: [u32; 2],
     /// Last tile column and row.
     last: [u32; 2],
 }
@@ -57,10 +63,9 @@ impl TileRange {
     fn new(params: &RasterParams) -> TileRange {
         let tile_units = params.units as u64 * params.tile_size as u64;
         TileRange {
-            units: params.units as i64,
+            limit: [params.width as i64 * params.units as i64, params.height as i64 * params.units as i64],
             tile_units,
             shift: tile_units.is_power_of_two().then(|| tile_units.trailing_zeros()),
-            size: [params.width, params.height],
             last: [(params.width - 1) / params.tile_size, (params.height - 1) / params.tile_size],
         }
     }
@@ -78,21 +83,22 @@ impl TileRange {
     /// the image, divided by the tile side (`⌊⌊a/b⌋/c⌋ = ⌊a/(b·c)⌋`).
     #[inline(always)]
     fn of(&self, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
-        let v = tri.map(|i| snapped[i as usize]);
-        if v.contains(&INVALID_SNAPPED) {
+        let [a, b, c] = tri.map(|i| snapped[i as usize]);
+        // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
+        if a[0] == INVALID_SNAPPED[0] || b[0] == INVALID_SNAPPED[0] || c[0] == INVALID_SNAPPED[0] {
             return None;
         }
-        let span = |k: usize| -> Option<(u32, u32)> {
-            let lo = v[0][k].min(v[1][k]).min(v[2][k]) as i64 - 1;
-            let hi = v[0][k].max(v[1][k]).max(v[2][k]) as i64 + 1;
-            if hi < 0 || lo >= self.size[k] as i64 * self.units {
-                return None;
-            }
-            Some((self.tile(lo.max(0)), self.tile(hi).min(self.last[k])))
-        };
-        let (tx0, tx1) = span(0)?;
-        let (ty0, ty1) = span(1)?;
-        Some([tx0, ty0, tx1, ty1])
+        let lo = [a[0].min(b[0]).min(c[0]) as i64 - 1, a[1].min(b[1]).min(c[1]) as i64 - 1];
+        let hi = [a[0].max(b[0]).max(c[0]) as i64 + 1, a[1].max(b[1]).max(c[1]) as i64 + 1];
+        if hi[0] < 0 || hi[1] < 0 || lo[0] >= self.limit[0] || lo[1] >= self.limit[1] {
+            return None;
+        }
+        Some([
+            self.tile(lo[0].max(0)),
+            self.tile(lo[1].max(0)),
+            self.tile(hi[0]).min(self.last[0]),
+            self.tile(hi[1]).min(self.last[1]),
+        ])
     }
 }
 
@@ -157,14 +163,17 @@ pub fn bin(
     bins.triangles.resize(entries, 0);
     bins.boxes.clear();
     bins.boxes.resize(entries, [0.0; 4]);
+    bins.vertices.clear();
+    bins.vertices.resize(entries, [[0.0; 2]; 3]);
     for (index, r) in ranges.iter().enumerate() {
         let Some(r) = r else { continue };
-        let bbox = float_box(screen, triangles[index]);
+        let (bbox, vertices) = float_box(screen, triangles[index]);
         for ty in r[1]..=r[3] {
             for tx in r[0]..=r[2] {
                 let slot = &mut cursor[(ty * params.tiles_x + tx) as usize];
                 bins.triangles[*slot as usize] = index as u32;
                 bins.boxes[*slot as usize] = bbox;
+                bins.vertices[*slot as usize] = vertices;
                 *slot += 1;
             }
         }
@@ -177,15 +186,16 @@ pub fn culled_triangles(screen: &[ScreenVertex], triangles: &[[u32; 3]]) -> u32 
     triangles.par_iter().with_min_len(4096).filter(|t| t.iter().any(|&i| screen[i as usize].valid == 0)).count() as u32
 }
 
-/// Float bounding box `[xmin, ymin, xmax, ymax]` of a triangle.
-fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> [f32; 4] {
+/// Float bounding box `[xmin, ymin, −xmax, −ymax]` of a triangle, and its vertex positions.
+fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> ([f32; 4], [[f32; 2]; 3]) {
     let p = tri.map(|v| screen[v as usize].position);
-    [
+    let bbox = [
         p[0][0].min(p[1][0]).min(p[2][0]),
         p[0][1].min(p[1][1]).min(p[2][1]),
-        p[0][0].max(p[1][0]).max(p[2][0]),
-        p[0][1].max(p[1][1]).max(p[2][1]),
-    ]
+        -p[0][0].max(p[1][0]).max(p[2][0]),
+        -p[0][1].max(p[1][1]).max(p[2][1]),
+    ];
+    (bbox, p)
 }
 
 /// Triangles per parallel task of [`bin_tiles`].
@@ -205,17 +215,18 @@ pub fn bin_tiles(
     bins: &mut Bins,
 ) {
     let tiles_x = params.tiles_x as usize;
+    let range = TileRange::new(params);
     // (list, triangle) pairs, per task in triangle order.
     let pairs: Vec<Vec<(u32, u32)>> = triangles
         .par_chunks(TRIANGLES_PER_TASK)
         .enumerate()
         .map(|(task, chunk)| {
             let mut pairs = Vec::new();
-            let range = TileRange::new(params);
             for (k, &tri) in chunk.iter().enumerate() {
-                let Some(r) = range.of(snapped, tri) else { continue };
-                for ty in r[1] as usize..=r[3] as usize {
-                    for &slot in &slots[ty * tiles_x + r[0] as usize..=ty * tiles_x + r[2] as usize] {
+                let Some([tx0, ty0, tx1, ty1]) = range.of(snapped, tri) else { continue };
+                for ty in ty0 as usize..=ty1 as usize {
+                    let row = &slots[ty * tiles_x..(ty + 1) * tiles_x];
+                    for &slot in &row[tx0 as usize..tx1 as usize + 1] {
                         if slot != u32::MAX {
                             pairs.push((slot, (task * TRIANGLES_PER_TASK + k) as u32));
                         }
@@ -239,10 +250,12 @@ pub fn bin_tiles(
     bins.triangles.resize(entries, 0);
     bins.boxes.clear();
     bins.boxes.resize(entries, [0.0; 4]);
+    bins.vertices.clear();
+    bins.vertices.resize(entries, [[0.0; 2]; 3]);
     for &(slot, t) in pairs.iter().flatten() {
         let c = &mut cursor[slot as usize];
+        (bins.boxes[*c as usize], bins.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
         bins.triangles[*c as usize] = t;
-        bins.boxes[*c as usize] = float_box(screen, triangles[t as usize]);
         *c += 1;
     }
 }
@@ -342,8 +355,8 @@ mod tests {
             let mut lazy = Bins::default();
             bin_tiles(&params, &screen, &snapped, &triangles, &slots, wanted.len(), &mut lazy);
             for (slot, &t) in wanted.iter().enumerate() {
-                let a: Vec<_> = full.tile(t).map(|(i, b)| (i, *b)).collect();
-                let b: Vec<_> = lazy.tile(slot).map(|(i, b)| (i, *b)).collect();
+                let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
+                let b: Vec<_> = lazy.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
                 assert_eq!(a, b, "tile {t}");
             }
         }

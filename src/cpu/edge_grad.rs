@@ -8,7 +8,7 @@
 //! of DESIGN.md §2 ([`crate::closed_form`]). Each edge writes only its own slot: no atomics, and
 //! the result does not depend on the thread count.
 
-use glam::DVec2;
+use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
 use super::bin::{self, Bins};
@@ -38,6 +38,26 @@ impl std::ops::Add for SegmentStats {
 fn position(screen: &[ScreenVertex], v: u32) -> DVec2 {
     let p = screen[v as usize].position;
     DVec2::new(p[0] as f64, p[1] as f64)
+}
+
+/// The largest f32 at most `x`.
+fn at_most(x: f64) -> f32 {
+    let y = x as f32;
+    if y as f64 > x {
+        y.next_down()
+    } else {
+        y
+    }
+}
+
+/// The smallest f32 at least `x`.
+fn at_least(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) < x {
+        y.next_up()
+    } else {
+        y
+    }
 }
 
 /// Parameter intervals of `[sa, sb]` on `va + s·d` whose outside (`+ε·outward`) is inside triangle
@@ -142,8 +162,6 @@ fn edge_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, o
 /// parameter interval whose outside is covered by no triangle of its tile's list.
 #[allow(clippy::too_many_arguments)]
 fn visible_weights(
-    screen: &[ScreenVertex],
-    triangles: &[[u32; 3]],
     bins: &Bins,
     (va, vb, outward): (DVec2, DVec2, DVec2),
     segment: &Segment,
@@ -153,12 +171,17 @@ fn visible_weights(
     let d = vb - va;
     let (bb_lo, bb_hi) = (va + c.0 * d, va + c.1 * d);
     let (bb_lo, bb_hi) = (bb_lo.min(bb_hi), bb_lo.max(bb_hi));
+    // A triangle whose box misses the segment's box covers none of it. For an f32 `x`,
+    // `x > bb_hi` is `x > (largest f32 ≤ bb_hi)` and `x < bb_lo` is `x < (smallest f32 ≥ bb_lo)`,
+    // so the test runs exactly in f32, on the boxes stored as [xmin, ymin, −xmax, −ymax].
+    let miss = Vec4::new(at_most(bb_hi.x), at_most(bb_hi.y), -at_least(bb_lo.x), -at_least(bb_lo.y));
     scratch.clear();
-    for (t, b) in bins.tile(segment.tile as usize) {
-        if b[0] as f64 > bb_hi.x || b[1] as f64 > bb_hi.y || (b[2] as f64) < bb_lo.x || (b[3] as f64) < bb_lo.y {
+    let list = bins.offsets[segment.tile as usize] as usize..bins.offsets[segment.tile as usize + 1] as usize;
+    for (b, v) in bins.boxes[list.clone()].iter().zip(&bins.vertices[list]) {
+        if Vec4::from_array(*b).cmpgt(miss).any() {
             continue;
         }
-        let q = triangles[t as usize].map(|v| position(screen, v));
+        let q = v.map(|p| DVec2::new(p[0] as f64, p[1] as f64));
         if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
             scratch.push(iv);
         }
@@ -178,8 +201,6 @@ fn visible_weights(
 
 /// Sums the visible weights of an edge's segments (in walk order) into its slot.
 fn accumulate(
-    screen: &[ScreenVertex],
-    triangles: &[[u32; 3]],
     bins: &Bins,
     geometry: (DVec2, DVec2, DVec2),
     segments: &[Segment],
@@ -189,7 +210,7 @@ fn accumulate(
     let (mut wa, mut wb) = (0.0f64, 0.0f64);
     for segment in segments {
         stats.segments += 1;
-        let (visible_a, visible_b) = visible_weights(screen, triangles, bins, geometry, segment, scratch);
+        let (visible_a, visible_b) = visible_weights(bins, geometry, segment, scratch);
         if visible_a != 0.0 || visible_b != 0.0 {
             stats.visible_segments += 1;
         }
@@ -255,7 +276,6 @@ pub fn edge_grad(
     }
     let mut bins = Bins::default();
     bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize, &mut bins);
-    let triangles = topology.triangles();
     let mut results = vec![(EdgeGrad::default(), SegmentStats::default()); candidates.len()];
     results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
         |((out, chunk), (segments, ends))| {
@@ -265,7 +285,7 @@ pub fn edge_grad(
                 let pieces = &segments[start..end as usize];
                 start = end as usize;
                 if let Some(g) = geometry(candidate) {
-                    *result = accumulate(screen, triangles, &bins, g, pieces, &mut scratch);
+                    *result = accumulate(&bins, g, pieces, &mut scratch);
                 }
             }
         },
