@@ -201,10 +201,12 @@ fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> ([f32; 4], [[f32; 2]; 3]
 /// Triangles per parallel task of [`bin_tiles`].
 const TRIANGLES_PER_TASK: usize = 4096;
 
-/// The lists of [`bin`] for some tiles only: tile `t` is wanted when `slots[t] != u32::MAX`, and
-/// its list goes to `bins` entry `slots[t]` (`0..lists`). Each list holds the same triangles as in
-/// [`bin`], in triangle order. Used by the CPU backward, which needs lists only where silhouette
-/// segments with a non-zero incoming gradient lie.
+/// The lists of [`bin`] for some tiles only, built in parallel: tile `t` is wanted when
+/// `slots[t] != u32::MAX`, and its list is number `slots[t]` (`0..lists`). The lists come in
+/// parts, one per task of consecutive triangles: list `n` is the concatenation over the returned
+/// parts of `part.tile(n)`, which holds the same triangles as [`bin`]'s list, in triangle order.
+/// Used by the CPU backward, which needs lists only where silhouette segments with a non-zero
+/// incoming gradient lie.
 pub fn bin_tiles(
     params: &RasterParams,
     screen: &[ScreenVertex],
@@ -212,15 +214,14 @@ pub fn bin_tiles(
     triangles: &[[u32; 3]],
     slots: &[u32],
     lists: usize,
-    bins: &mut Bins,
-) {
+) -> Vec<Bins> {
     let tiles_x = params.tiles_x as usize;
     let range = TileRange::new(params);
-    // (list, triangle) pairs, per task in triangle order.
-    let pairs: Vec<Vec<(u32, u32)>> = triangles
+    triangles
         .par_chunks(TRIANGLES_PER_TASK)
         .enumerate()
         .map(|(task, chunk)| {
+            // (list, triangle) pairs in triangle order, then sorted by list (stably).
             let mut pairs = Vec::new();
             for (k, &tri) in chunk.iter().enumerate() {
                 let Some([tx0, ty0, tx1, ty1]) = range.of(snapped, tri) else { continue };
@@ -233,31 +234,26 @@ pub fn bin_tiles(
                     }
                 }
             }
-            pairs
+            let mut part = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
+            for &(slot, _) in &pairs {
+                part.offsets[slot as usize + 1] += 1;
+            }
+            for t in 0..lists {
+                part.offsets[t + 1] += part.offsets[t];
+            }
+            let mut cursor = part.offsets.clone();
+            part.triangles.resize(pairs.len(), 0);
+            part.boxes.resize(pairs.len(), [0.0; 4]);
+            part.vertices.resize(pairs.len(), [[0.0; 2]; 3]);
+            for &(slot, t) in &pairs {
+                let c = &mut cursor[slot as usize];
+                (part.boxes[*c as usize], part.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
+                part.triangles[*c as usize] = t;
+                *c += 1;
+            }
+            part
         })
-        .collect();
-    bins.offsets.clear();
-    bins.offsets.resize(lists + 1, 0);
-    for &(slot, _) in pairs.iter().flatten() {
-        bins.offsets[slot as usize + 1] += 1;
-    }
-    for t in 0..lists {
-        bins.offsets[t + 1] += bins.offsets[t];
-    }
-    let mut cursor = bins.offsets.clone();
-    let entries = bins.offsets[lists] as usize;
-    bins.triangles.clear();
-    bins.triangles.resize(entries, 0);
-    bins.boxes.clear();
-    bins.boxes.resize(entries, [0.0; 4]);
-    bins.vertices.clear();
-    bins.vertices.resize(entries, [[0.0; 2]; 3]);
-    for &(slot, t) in pairs.iter().flatten() {
-        let c = &mut cursor[slot as usize];
-        (bins.boxes[*c as usize], bins.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
-        bins.triangles[*c as usize] = t;
-        *c += 1;
-    }
+        .collect()
 }
 
 #[cfg(test)]
@@ -352,11 +348,10 @@ mod tests {
                 slots[t] = wanted.len() as u32;
                 wanted.push(t);
             }
-            let mut lazy = Bins::default();
-            bin_tiles(&params, &screen, &snapped, &triangles, &slots, wanted.len(), &mut lazy);
+            let parts = bin_tiles(&params, &screen, &snapped, &triangles, &slots, wanted.len());
             for (slot, &t) in wanted.iter().enumerate() {
                 let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
-                let b: Vec<_> = lazy.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
+                let b: Vec<_> = parts.iter().flat_map(|p| p.tile(slot)).map(|(i, b, v)| (i, *b, *v)).collect();
                 assert_eq!(a, b, "tile {t}");
             }
         }

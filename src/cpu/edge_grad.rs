@@ -184,7 +184,7 @@ struct Scratch {
 /// parameter interval whose outside is covered by no triangle of its tile's list.
 #[allow(clippy::too_many_arguments)]
 fn visible_weights(
-    bins: &Bins,
+    parts: &[Bins],
     (va, vb, outward): (DVec2, DVec2, DVec2),
     segment: &Segment,
     scratch: &mut Scratch,
@@ -197,30 +197,34 @@ fn visible_weights(
     // `x > bb_hi` is `x > (largest f32 ≤ bb_hi)` and `x < bb_lo` is `x < (smallest f32 ≥ bb_lo)`,
     // so the test runs exactly in f32, on the boxes stored as [xmin, ymin, −xmax, −ymax].
     let miss = Vec4::new(at_most(bb_hi.x), at_most(bb_hi.y), -at_least(bb_lo.x), -at_least(bb_lo.y));
-    let list = bins.offsets[segment.tile as usize] as usize..bins.offsets[segment.tile as usize + 1] as usize;
-    let (boxes, vertices) = (&bins.boxes[list.clone()], &bins.vertices[list]);
-    // The entries whose box meets the segment's, gathered without a branch per entry (about one
-    // in five passes, unpredictably).
-    let hits = &mut scratch.hits;
-    if hits.len() < boxes.len() {
-        hits.resize(boxes.len(), 0);
-    }
-    let mut count = 0;
-    for (k, b) in boxes.iter().enumerate() {
-        hits[count] = k as u32;
-        count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
-    }
     // Occluded intervals, kept sorted by (lo, hi). Once they cover the whole segment nothing
     // further can uncover any of it: the segment is hidden and the scan stops.
-    let intervals = &mut scratch.intervals;
+    let Scratch { hits, intervals } = scratch;
     intervals.clear();
-    for &k in &hits[..count] {
-        let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
-        if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
-            let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
-            intervals.insert(at, iv);
-            if covers(intervals, c) {
-                return (0.0, 0.0);
+    for part in parts {
+        let list = part.offsets[segment.tile as usize] as usize..part.offsets[segment.tile as usize + 1] as usize;
+        if list.is_empty() {
+            continue;
+        }
+        let (boxes, vertices) = (&part.boxes[list.clone()], &part.vertices[list]);
+        // The entries whose box meets the segment's, gathered without a branch per entry (about
+        // one in five passes, unpredictably).
+        if hits.len() < boxes.len() {
+            hits.resize(boxes.len(), 0);
+        }
+        let mut count = 0;
+        for (k, b) in boxes.iter().enumerate() {
+            hits[count] = k as u32;
+            count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
+        }
+        for &k in &hits[..count] {
+            let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+            if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
+                let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
+                intervals.insert(at, iv);
+                if covers(intervals, c) {
+                    return (0.0, 0.0);
+                }
             }
         }
     }
@@ -238,7 +242,7 @@ fn visible_weights(
 
 /// Sums the visible weights of an edge's segments (in walk order) into its slot.
 fn accumulate(
-    bins: &Bins,
+    parts: &[Bins],
     geometry: (DVec2, DVec2, DVec2),
     segments: &[Segment],
     scratch: &mut Scratch,
@@ -247,7 +251,7 @@ fn accumulate(
     let (mut wa, mut wb) = (0.0f64, 0.0f64);
     for segment in segments {
         stats.segments += 1;
-        let (visible_a, visible_b) = visible_weights(bins, geometry, segment, scratch);
+        let (visible_a, visible_b) = visible_weights(parts, geometry, segment, scratch);
         if visible_a != 0.0 || visible_b != 0.0 {
             stats.visible_segments += 1;
         }
@@ -311,8 +315,7 @@ pub fn edge_grad(
             segment.tile = *slot;
         }
     }
-    let mut bins = Bins::default();
-    bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize, &mut bins);
+    let parts = bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize);
     let mut results = vec![(EdgeGrad::default(), SegmentStats::default()); candidates.len()];
     results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
         |((out, chunk), (segments, ends))| {
@@ -322,7 +325,7 @@ pub fn edge_grad(
                 let pieces = &segments[start..end as usize];
                 start = end as usize;
                 if let Some(g) = geometry(candidate) {
-                    *result = accumulate(&bins, g, pieces, &mut scratch);
+                    *result = accumulate(&parts, g, pieces, &mut scratch);
                 }
             }
         },
