@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::camera::{Camera, ViewParams};
 use crate::cpu;
@@ -386,14 +387,16 @@ impl Renderer {
         };
         let screen_grads = self.backward_screen(frame, d_images)?;
         let mut grads = vec![Vec3::ZERO; positions.len()];
-        for (view, g2) in views.iter().zip(&screen_grads) {
-            for ((g, p), d) in grads.iter_mut().zip(positions).zip(g2) {
-                if *d != Vec2::ZERO {
-                    let [jx, jy] = view.jacobian(*p);
+        // Per vertex, the views in order: the same sums whatever the thread count.
+        grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
+            for (view, g2) in views.iter().zip(&screen_grads) {
+                let d = g2[v];
+                if d != Vec2::ZERO {
+                    let [jx, jy] = view.jacobian(positions[v]);
                     *g += jx * d.x + jy * d.y;
                 }
             }
-        }
+        });
         Ok(grads)
     }
 
