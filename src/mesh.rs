@@ -107,6 +107,7 @@ pub struct Topology {
     vertex_edge_offsets: Vec<u32>,
     vertex_edges: Vec<u32>,
     edge_face_forward: Vec<bool>,
+    edge_wings: Vec<[u32; 2]>,
     boundary_offsets: Vec<u32>,
     boundary_vertices: Vec<u32>,
 }
@@ -159,6 +160,16 @@ impl Topology {
             let faces = &edge_faces[edge_face_offsets[e] as usize..edge_face_offsets[e + 1] as usize];
             edge_face_forward.extend(faces.iter().map(|&f| runs_forward(triangles[f as usize], a, b)));
         }
+        let edge_wings = (0..edges.len())
+            .map(|e| {
+                let range = edge_face_offsets[e] as usize..edge_face_offsets[e + 1] as usize;
+                match (&edge_faces[range.clone()], &edge_face_forward[range]) {
+                    (&[f, g], &[true, false]) => [f, g],
+                    (&[f, g], &[false, true]) => [g, f],
+                    _ => [u32::MAX; 2],
+                }
+            })
+            .collect();
         let (boundary_offsets, boundary_vertices) = boundary_components(vertex_count, &triangles);
         Ok(Topology {
             vertex_count,
@@ -169,6 +180,7 @@ impl Topology {
             vertex_edge_offsets,
             vertex_edges,
             edge_face_forward,
+            edge_wings,
             boundary_offsets,
             boundary_vertices,
         })
@@ -178,6 +190,13 @@ impl Topology {
     /// `[a, b]` from `a` to `b` (has `a` followed by `b` in its cyclic order).
     pub fn edge_face_forward(&self) -> &[bool] {
         &self.edge_face_forward
+    }
+
+    /// For each edge `[a, b]` with exactly two faces, one running `a → b` and the other `b → a`
+    /// (the usual case in a consistently oriented manifold mesh): `[the first, the second]`;
+    /// `[u32::MAX; 2]` for every other edge.
+    pub fn edge_wings(&self) -> &[[u32; 2]] {
+        &self.edge_wings
     }
 
     /// Whether the triangles form an oriented closed surface: every undirected edge is run as
@@ -360,6 +379,9 @@ mod tests {
         let shared = t.edges().iter().position(|e| *e == [0, 2]).unwrap();
         let at = t.edge_face_offsets()[shared] as usize;
         assert_eq!(&t.edge_face_forward()[at..at + 2], &[false, true]);
+        assert_eq!(t.edge_wings()[shared], [1, 0]);
+        let outer = t.edges().iter().position(|e| *e == [0, 1]).unwrap();
+        assert_eq!(t.edge_wings()[outer], [u32::MAX; 2]);
     }
 
     #[test]
