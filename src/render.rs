@@ -85,6 +85,10 @@ enum Source {
     World { positions: Vec<Vec3>, views: Vec<ViewParams> },
 }
 
+/// One view's input to the CPU forward: raster constants, screen vertices and, when the projection
+/// already made them, the snapped vertices.
+type CpuView = (RasterParams, Vec<ScreenVertex>, Option<Vec<[i32; 2]>>);
+
 /// What the backward of a frame needs, per backend.
 enum FrameState {
     /// The CPU backend keeps each view's state.
@@ -262,9 +266,9 @@ impl Renderer {
             .iter()
             .zip(params)
             .map(|(view, params)| {
-                let mut screen = vec![ScreenVertex::default(); mesh.positions().len()];
-                cpu::project::project(view, mesh.positions(), &mut screen);
-                (params, screen)
+                let (mut screen, mut snapped) = (Vec::new(), Vec::new());
+                cpu::project::project_and_snap(view, &params, mesh.positions(), &mut screen, &mut snapped);
+                (params, screen, Some(snapped))
             })
             .collect();
         let source = Source::World { positions: mesh.positions().to_vec(), views };
@@ -295,10 +299,11 @@ impl Renderer {
                     ScreenVertex { position: if valid { v.to_array() } else { [0.0; 2] }, valid: valid as u32, pad: 0 }
                 })
                 .collect();
-            screens.push((params, screen));
+            screens.push((params, screen, None));
         }
         if let Engine::Gpu(gpu) = &mut self.engine {
-            let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) = screens.into_iter().unzip();
+            let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) =
+                screens.into_iter().map(|(p, s, _)| (p, s)).unzip();
             let out = gpu.forward(topology, &params, Input::Screen(&screens))?;
             return gpu_frame(topology.clone(), params, out, Source::Screen, screens);
         }
@@ -310,17 +315,17 @@ impl Renderer {
         RasterParams::new(width, height, s.supersample, s.inside, s.outside)
     }
 
-    fn forward(
-        &mut self,
-        topology: Arc<Topology>,
-        screens: Vec<(RasterParams, Vec<ScreenVertex>)>,
-        source: Source,
-    ) -> Frame {
+    fn forward(&mut self, topology: Arc<Topology>, screens: Vec<CpuView>, source: Source) -> Frame {
         let mut images = Vec::with_capacity(screens.len());
         let mut stats = Vec::with_capacity(screens.len());
         let mut views = Vec::with_capacity(screens.len());
-        for (params, screen) in screens {
-            let (state, image) = cpu::forward_view(params, screen, &topology);
+        for (params, screen, snapped) in screens {
+            let snapped = snapped.unwrap_or_else(|| {
+                let mut snapped = vec![[0; 2]; screen.len()];
+                cpu::project::snap(&params, &screen, &mut snapped);
+                snapped
+            });
+            let (state, image) = cpu::forward_view(params, screen, snapped, &topology);
             stats.push(RenderStats {
                 culled_triangles: state.culled_triangles,
                 candidate_edges: state.candidates.len() as u32,

@@ -40,11 +40,15 @@ pub struct ViewState {
     pub culled_triangles: u32,
 }
 
-/// Forward of one view from screen vertices: returns the state and the image.
-pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topology: &Topology) -> (ViewState, Vec<f32>) {
+/// Forward of one view from screen vertices and their snapped positions ([`project::snap`], or both
+/// from [`project::project_and_snap`]): returns the state and the image.
+pub fn forward_view(
+    mut params: RasterParams,
+    screen: Vec<ScreenVertex>,
+    snapped: Vec<[i32; 2]>,
+    topology: &Topology,
+) -> (ViewState, Vec<f32>) {
     let triangles = topology.triangles();
-    let mut snapped = vec![[0; 2]; screen.len()];
-    project::snap(&params, &screen, &mut snapped);
     let skip = coverage::BackFaceSkip::new(topology, &snapped);
     let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
     let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
