@@ -219,6 +219,12 @@ fn visible_weights(
         }
         for &k in &hits[..count] {
             let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+            // A triangle on the inside of the edge's line (closed half-plane) covers no point just
+            // outside it: the usual case (the edge's own faces and their neighbours). The signs
+            // are exact (f32 differences, their products and one sum of two in f64).
+            if q.iter().all(|&p| (p - va).dot(outward) <= 0.0) {
+                continue;
+            }
             if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
                 let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
                 intervals.insert(at, iv);
