@@ -106,6 +106,10 @@ pub struct Topology {
     edge_faces: Vec<u32>,
     vertex_edge_offsets: Vec<u32>,
     vertex_edges: Vec<u32>,
+    edge_face_forward: Vec<bool>,
+    edge_wings: Vec<[u32; 2]>,
+    boundary_offsets: Vec<u32>,
+    boundary_vertices: Vec<u32>,
 }
 
 impl Topology {
@@ -151,6 +155,22 @@ impl Topology {
             edge_face_offsets.push(edge_faces.len() as u32);
         }
         let (vertex_edge_offsets, vertex_edges) = vertex_edge_csr(vertex_count, &edges);
+        let mut edge_face_forward = Vec::with_capacity(edge_faces.len());
+        for (e, &[a, b]) in edges.iter().enumerate() {
+            let faces = &edge_faces[edge_face_offsets[e] as usize..edge_face_offsets[e + 1] as usize];
+            edge_face_forward.extend(faces.iter().map(|&f| runs_forward(triangles[f as usize], a, b)));
+        }
+        let edge_wings = (0..edges.len())
+            .map(|e| {
+                let range = edge_face_offsets[e] as usize..edge_face_offsets[e + 1] as usize;
+                match (&edge_faces[range.clone()], &edge_face_forward[range]) {
+                    (&[f, g], &[true, false]) => [f, g],
+                    (&[f, g], &[false, true]) => [g, f],
+                    _ => [u32::MAX; 2],
+                }
+            })
+            .collect();
+        let (boundary_offsets, boundary_vertices) = boundary_components(vertex_count, &triangles);
         Ok(Topology {
             vertex_count,
             triangles,
@@ -159,7 +179,43 @@ impl Topology {
             edge_faces,
             vertex_edge_offsets,
             vertex_edges,
+            edge_face_forward,
+            edge_wings,
+            boundary_offsets,
+            boundary_vertices,
         })
+    }
+
+    /// For each entry of [`Topology::edge_face_list`]: whether that face runs along its edge
+    /// `[a, b]` from `a` to `b` (has `a` followed by `b` in its cyclic order).
+    pub fn edge_face_forward(&self) -> &[bool] {
+        &self.edge_face_forward
+    }
+
+    /// For each edge `[a, b]` with exactly two faces, one running `a → b` and the other `b → a`
+    /// (the usual case in a consistently oriented manifold mesh): `[the first, the second]`;
+    /// `[u32::MAX; 2]` for every other edge.
+    pub fn edge_wings(&self) -> &[[u32; 2]] {
+        &self.edge_wings
+    }
+
+    /// Whether the triangles form an oriented closed surface: every undirected edge is run as
+    /// often from `a` to `b` as from `b` to `a`, counted over all triangles (a closed,
+    /// consistently oriented manifold is one; so is any union of them). See
+    /// [`Topology::boundary_components`].
+    pub fn is_closed(&self) -> bool {
+        self.boundary_vertices.is_empty()
+    }
+
+    /// The vertex sets of the connected components of the mesh's oriented boundary.
+    ///
+    /// The boundary is the set of directed edges that the triangles run more often one way than
+    /// the other (as a chain: the sum of the triangles' directed edges, where opposite edges cancel),
+    /// e.g. the rims of holes, or both sides of an edge whose faces disagree in orientation. Every
+    /// vertex of it has as many boundary edges in as out, so each component is a closed loop. The
+    /// CPU coverage uses them to skip back faces exactly (see `cpu::coverage`).
+    pub fn boundary_components(&self) -> impl ExactSizeIterator<Item = &[u32]> + '_ {
+        self.boundary_offsets.windows(2).map(|w| &self.boundary_vertices[w[0] as usize..w[1] as usize])
     }
 
     /// Number of vertices the triangles index into.
@@ -209,6 +265,63 @@ impl Topology {
     }
 }
 
+/// Whether triangle `tri` has `a` followed by `b` in its cyclic order.
+fn runs_forward(tri: [u32; 3], a: u32, b: u32) -> bool {
+    (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b)
+}
+
+/// CSR (offsets, vertices) of the connected components of the oriented boundary of `triangles`
+/// (see [`Topology::boundary_components`]); components in order of their smallest vertex, each
+/// listing its vertices in increasing order.
+fn boundary_components(vertex_count: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>) {
+    // Net number of times each undirected edge [a, b] (a < b) is run from a to b.
+    let mut directed: Vec<([u32; 2], i32)> = Vec::with_capacity(triangles.len() * 3);
+    for tri in triangles {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            if a != b {
+                directed.push(([a.min(b), a.max(b)], if a < b { 1 } else { -1 }));
+            }
+        }
+    }
+    directed.sort_unstable_by_key(|d| d.0);
+    // Union–find over the vertices of the unbalanced edges.
+    let mut parent: Vec<u32> = (0..vertex_count as u32).collect();
+    fn root(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            parent[v as usize] = parent[parent[v as usize] as usize];
+            v = parent[v as usize];
+        }
+        v
+    }
+    let mut on_boundary = vec![false; vertex_count];
+    for run in directed.chunk_by(|x, y| x.0 == y.0) {
+        if run.iter().map(|d| d.1).sum::<i32>() != 0 {
+            let [a, b] = run[0].0;
+            on_boundary[a as usize] = true;
+            on_boundary[b as usize] = true;
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        }
+    }
+    // Group the boundary vertices by root (a root is its component's smallest vertex).
+    let mut members: Vec<(u32, u32)> =
+        (0..vertex_count as u32).filter(|&v| on_boundary[v as usize]).map(|v| (root(&mut parent, v), v)).collect();
+    members.sort_unstable();
+    let mut offsets = vec![0u32];
+    let mut vertices = Vec::with_capacity(members.len());
+    for (k, &(r, v)) in members.iter().enumerate() {
+        if k > 0 && members[k - 1].0 != r {
+            offsets.push(vertices.len() as u32);
+        }
+        vertices.push(v);
+    }
+    if !vertices.is_empty() {
+        offsets.push(vertices.len() as u32);
+    }
+    (offsets, vertices)
+}
+
 fn vertex_edge_csr(vertex_count: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {
     let mut offsets = vec![0u32; vertex_count + 1];
     for e in edges {
@@ -241,6 +354,34 @@ mod tests {
         assert_eq!(t.edge_faces(shared), &[0, 1]);
         assert_eq!(t.vertex_edges(0).len(), 3);
         assert_eq!(t.vertex_edges(1).len(), 2);
+    }
+
+    #[test]
+    fn boundary_components_of_open_and_closed_meshes() {
+        // A tetrahedron, consistently oriented: closed.
+        let tet = vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]];
+        let t = Topology::new(4, tet.clone()).unwrap();
+        assert!(t.is_closed());
+        assert_eq!(t.boundary_components().len(), 0);
+        // One face flipped: its three edges are boundary (run twice the same way).
+        let mut flipped = tet.clone();
+        flipped[0] = [0, 1, 2];
+        let t = Topology::new(4, flipped).unwrap();
+        assert!(!t.is_closed());
+        assert_eq!(t.boundary_components().collect::<Vec<_>>(), vec![&[0, 1, 2][..]]);
+        // Two separate quads: two rims. A degenerate face adds nothing.
+        let t = Topology::new(9, vec![[0, 1, 2], [0, 2, 3], [5, 6, 7], [5, 7, 8], [4, 4, 1]]).unwrap();
+        assert_eq!(t.boundary_components().collect::<Vec<_>>(), vec![&[0, 1, 2, 3][..], &[5, 6, 7, 8][..]]);
+        // A doubled face (both windings) closes itself.
+        assert!(Topology::new(3, vec![[0, 1, 2], [0, 2, 1]]).unwrap().is_closed());
+        // Forward flags follow the faces' cyclic order.
+        let t = Topology::new(4, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let shared = t.edges().iter().position(|e| *e == [0, 2]).unwrap();
+        let at = t.edge_face_offsets()[shared] as usize;
+        assert_eq!(&t.edge_face_forward()[at..at + 2], &[false, true]);
+        assert_eq!(t.edge_wings()[shared], [1, 0]);
+        let outer = t.edges().iter().position(|e| *e == [0, 1]).unwrap();
+        assert_eq!(t.edge_wings()[outer], [u32::MAX; 2]);
     }
 
     #[test]

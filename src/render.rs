@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::camera::{Camera, ViewParams};
 use crate::cpu;
@@ -87,6 +88,10 @@ enum Source {
     Screen,
     World { positions: Vec<Vec3>, views: Vec<ViewParams> },
 }
+
+/// One view's input to the CPU forward: raster constants, screen vertices and, when the projection
+/// already made them, the snapped vertices.
+type CpuView = (RasterParams, Vec<ScreenVertex>, Option<Vec<[i32; 2]>>);
 
 /// What the backward of a frame needs, per backend.
 enum FrameState {
@@ -259,9 +264,9 @@ impl Renderer {
             .iter()
             .zip(params)
             .map(|(view, params)| {
-                let mut screen = vec![ScreenVertex::default(); mesh.positions().len()];
-                cpu::project::project(view, mesh.positions(), &mut screen);
-                (params, screen)
+                let (mut screen, mut snapped) = (Vec::new(), Vec::new());
+                cpu::project::project_and_snap(view, &params, mesh.positions(), &mut screen, &mut snapped);
+                (params, screen, Some(snapped))
             })
             .collect();
         let source = Source::World { positions: mesh.positions().to_vec(), views };
@@ -292,10 +297,11 @@ impl Renderer {
                     ScreenVertex { position: if valid { v.to_array() } else { [0.0; 2] }, valid: valid as u32, pad: 0 }
                 })
                 .collect();
-            screens.push((params, screen));
+            screens.push((params, screen, None));
         }
         if let Engine::Gpu(gpu) = &mut self.engine {
-            let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) = screens.into_iter().unzip();
+            let (params, screens): (Vec<RasterParams>, Vec<Vec<ScreenVertex>>) =
+                screens.into_iter().map(|(p, s, _)| (p, s)).unzip();
             let out = gpu.forward(topology, &params, Input::Screen(&screens), ForwardMode::Images)?;
             return gpu_frame(topology.clone(), params, out, Source::Screen, screens);
         }
@@ -307,20 +313,20 @@ impl Renderer {
         RasterParams::new(width, height, s.supersample, s.inside, s.outside)
     }
 
-    fn forward(
-        &mut self,
-        topology: Arc<Topology>,
-        screens: Vec<(RasterParams, Vec<ScreenVertex>)>,
-        source: Source,
-    ) -> Frame {
+    fn forward(&mut self, topology: Arc<Topology>, screens: Vec<CpuView>, source: Source) -> Frame {
         let mut images = Vec::with_capacity(screens.len());
         let mut stats = Vec::with_capacity(screens.len());
         let mut views = Vec::with_capacity(screens.len());
-        for (params, screen) in screens {
-            let (state, image) = cpu::forward_view(params, screen, &topology);
+        for (params, screen, snapped) in screens {
+            let snapped = snapped.unwrap_or_else(|| {
+                let mut snapped = vec![[0; 2]; screen.len()];
+                cpu::project::snap(&params, &screen, &mut snapped);
+                snapped
+            });
+            let (state, image) = cpu::forward_view(params, screen, snapped, &topology);
             stats.push(RenderStats {
                 culled_triangles: state.culled_triangles,
-                candidate_edges: state.sides.iter().filter(|&&s| s != 0).count() as u32,
+                candidate_edges: state.candidates.len() as u32,
                 tile_size: state.params.tile_size,
             });
             images.push(Image::from_vec(params.width, params.height, image).expect("image sized by the raster"));
@@ -406,14 +412,16 @@ impl Renderer {
 /// summed over views (in view order).
 fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], screen_grads: &[Vec<Vec2>]) -> Vec<Vec3> {
     let mut grads = vec![Vec3::ZERO; positions.len()];
-    for (view, g2) in views.iter().zip(screen_grads) {
-        for ((g, p), d) in grads.iter_mut().zip(positions).zip(g2) {
-            if *d != Vec2::ZERO {
-                let [jx, jy] = view.jacobian(*p);
+    // Per vertex, the views in order: the same sums whatever the thread count.
+    grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
+        for (view, g2) in views.iter().zip(screen_grads) {
+            let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
+            if d != Vec2::ZERO {
+                let [jx, jy] = view.jacobian(positions[v]);
                 *g += jx * d.x + jy * d.y;
             }
         }
-    }
+    });
     grads
 }
 

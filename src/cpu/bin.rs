@@ -17,39 +17,89 @@ pub struct Bins {
     pub offsets: Vec<u32>,
     /// Triangle indices, grouped by tile.
     pub triangles: Vec<u32>,
-    /// The float bounding box `[xmin, ymin, xmax, ymax]` of each entry of `triangles`, beside it
-    /// so the `edge_grad` stage scans a tile without touching vertices (a CPU-side cache; the
-    /// WGSL stage reads the vertices).
+    /// The float bounding box of each entry of `triangles` as `[xmin, ymin, −xmax, −ymax]` (so
+    /// that one four-lane `>` tells that it misses a box), beside it so the `edge_grad` stage
+    /// scans a tile without touching vertices (a CPU-side cache; the WGSL stage reads the
+    /// vertices).
     pub boxes: Vec<[f32; 4]>,
+    /// The screen positions of each entry's vertices (a CPU-side cache, like `boxes`).
+    pub vertices: Vec<[[f32; 2]; 3]>,
 }
 
 impl Bins {
-    /// Entries `(triangle, bounding box)` of tile `t`.
-    pub fn tile(&self, t: usize) -> impl Iterator<Item = (u32, &[f32; 4])> {
+    /// Entries `(triangle, box, vertices)` of tile `t`.
+    pub fn tile(&self, t: usize) -> impl Iterator<Item = (u32, &[f32; 4], &[[f32; 2]; 3])> {
         let range = self.offsets[t] as usize..self.offsets[t + 1] as usize;
-        self.triangles[range.clone()].iter().copied().zip(&self.boxes[range])
+        self.triangles[range.clone()]
+            .iter()
+            .copied()
+            .zip(&self.boxes[range.clone()])
+            .zip(&self.vertices[range])
+            .map(|((t, b), v)| (t, b, v))
     }
 }
 
 /// Inclusive tile range `[tx0, ty0, tx1, ty1]` of a triangle, or `None` when it is culled or
 /// entirely off-screen. Shared by the count and fill passes (as in WGSL).
 pub fn triangle_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
-    let v = tri.map(|i| snapped[i as usize]);
-    if v.contains(&INVALID_SNAPPED) {
-        return None;
+    TileRange::new(params).of(snapped, tri)
+}
+
+/// [`triangle_tiles`] with its divisions prepared once (shifts when the tile side in fixed-point
+/// units is a power of two, as it is for F = 1, 2, 4, 8, 16).
+#[derive(Clone, Copy, Debug)]
+struct TileRange {
+    /// Image width and height in fixed-point units.
+    limit: [i64; 2],
+    /// Fixed-point units per tile side.
+    tile_units: u64,
+    /// `log2(tile_units)` when it is a power of two.
+    shift: Option<u32>,
+    /// Last tile column and row.
+    last: [u32; 2],
+}
+
+impl TileRange {
+    fn new(params: &RasterParams) -> TileRange {
+        let tile_units = params.units as u64 * params.tile_size as u64;
+        TileRange {
+            limit: [params.width as i64 * params.units as i64, params.height as i64 * params.units as i64],
+            tile_units,
+            shift: tile_units.is_power_of_two().then(|| tile_units.trailing_zeros()),
+            last: [(params.width - 1) / params.tile_size, (params.height - 1) / params.tile_size],
+        }
     }
-    let units = params.units as i32;
-    let span = |c: [i32; 3], size: u32| -> Option<(u32, u32)> {
-        let lo = (c[0].min(c[1]).min(c[2]) - 1).div_euclid(units);
-        let hi = (c[0].max(c[1]).max(c[2]) + 1).div_euclid(units);
-        if hi < 0 || lo >= size as i32 {
+
+    /// `⌊n / tile_units⌋` for `n ≥ 0`.
+    #[inline(always)]
+    fn tile(&self, n: i64) -> u32 {
+        match self.shift {
+            Some(shift) => (n as u64 >> shift) as u32,
+            None => (n as u64 / self.tile_units) as u32,
+        }
+    }
+
+    /// The tile range of `tri`: the pixels `⌊(min − 1)/units⌋ ..= ⌊(max + 1)/units⌋` clamped to
+    /// the image, divided by the tile side (`⌊⌊a/b⌋/c⌋ = ⌊a/(b·c)⌋`).
+    #[inline(always)]
+    fn of(&self, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
+        let [a, b, c] = tri.map(|i| snapped[i as usize]);
+        // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
+        if a[0] == INVALID_SNAPPED[0] || b[0] == INVALID_SNAPPED[0] || c[0] == INVALID_SNAPPED[0] {
             return None;
         }
-        Some((lo.max(0) as u32 / params.tile_size, hi.min(size as i32 - 1) as u32 / params.tile_size))
-    };
-    let (tx0, tx1) = span(v.map(|p| p[0]), params.width)?;
-    let (ty0, ty1) = span(v.map(|p| p[1]), params.height)?;
-    Some([tx0, ty0, tx1, ty1])
+        let lo = [a[0].min(b[0]).min(c[0]) as i64 - 1, a[1].min(b[1]).min(c[1]) as i64 - 1];
+        let hi = [a[0].max(b[0]).max(c[0]) as i64 + 1, a[1].max(b[1]).max(c[1]) as i64 + 1];
+        if hi[0] < 0 || hi[1] < 0 || lo[0] >= self.limit[0] || lo[1] >= self.limit[1] {
+            return None;
+        }
+        Some([
+            self.tile(lo[0].max(0)),
+            self.tile(lo[1].max(0)),
+            self.tile(hi[0]).min(self.last[0]),
+            self.tile(hi[1]).min(self.last[1]),
+        ])
+    }
 }
 
 /// Picks a tile side: a power of two near twice the mean on-screen triangle extent, 1 to 64 pixels,
@@ -68,10 +118,17 @@ pub fn choose_tile_size(params: &RasterParams, snapped: &[[i32; 2]], triangles: 
                 let c = v.map(|p| p[k] as i64);
                 c[0].max(c[1]).max(c[2]) - c[0].min(c[1]).min(c[2])
             };
-            Some((extent(0).max(extent(1)).min(limit), 1u64))
+            Some((extent(0).max(extent(1)).min(limit) as u64, 1u64))
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    let mean = if count == 0 { 1.0 } else { sum as f64 / count as f64 / params.units as f64 };
+    tile_size(params, sum, count)
+}
+
+/// The tile side [`choose_tile_size`] picks from the sum of the capped extents (units) of the
+/// `count` non-culled triangles (which the CPU `coverage` pass adds up on its way,
+/// [`TriangleSummary`](super::coverage::TriangleSummary)).
+pub fn tile_size(params: &RasterParams, extent_sum: u64, count: u64) -> u32 {
+    let mean = if count == 0 { 1.0 } else { extent_sum as f64 / count as f64 / params.units as f64 };
     ((2.0 * mean).ceil().max(1.0) as u32).next_power_of_two().clamp(1, 64)
 }
 
@@ -85,8 +142,9 @@ pub fn bin(
     bins: &mut Bins,
 ) -> u32 {
     let tiles = params.tile_count();
+    let range = TileRange::new(params);
     let ranges: Vec<Option<[u32; 4]>> =
-        triangles.par_iter().with_min_len(4096).map(|&t| triangle_tiles(params, snapped, t)).collect();
+        triangles.par_iter().with_min_len(4096).map(|&t| range.of(snapped, t)).collect();
     bins.offsets.clear();
     bins.offsets.resize(tiles + 1, 0);
     for r in ranges.iter().flatten() {
@@ -105,23 +163,197 @@ pub fn bin(
     bins.triangles.resize(entries, 0);
     bins.boxes.clear();
     bins.boxes.resize(entries, [0.0; 4]);
+    bins.vertices.clear();
+    bins.vertices.resize(entries, [[0.0; 2]; 3]);
     for (index, r) in ranges.iter().enumerate() {
         let Some(r) = r else { continue };
-        let p = triangles[index].map(|v| screen[v as usize].position);
-        let bbox = [
-            p[0][0].min(p[1][0]).min(p[2][0]),
-            p[0][1].min(p[1][1]).min(p[2][1]),
-            p[0][0].max(p[1][0]).max(p[2][0]),
-            p[0][1].max(p[1][1]).max(p[2][1]),
-        ];
+        let (bbox, vertices) = float_box(screen, triangles[index]);
         for ty in r[1]..=r[3] {
             for tx in r[0]..=r[2] {
                 let slot = &mut cursor[(ty * params.tiles_x + tx) as usize];
                 bins.triangles[*slot as usize] = index as u32;
                 bins.boxes[*slot as usize] = bbox;
+                bins.vertices[*slot as usize] = vertices;
                 *slot += 1;
             }
         }
     }
+    culled_triangles(screen, triangles)
+}
+
+/// Number of triangles culled because a vertex was clipped by the camera.
+pub fn culled_triangles(screen: &[ScreenVertex], triangles: &[[u32; 3]]) -> u32 {
     triangles.par_iter().with_min_len(4096).filter(|t| t.iter().any(|&i| screen[i as usize].valid == 0)).count() as u32
+}
+
+/// Float bounding box `[xmin, ymin, −xmax, −ymax]` of a triangle, and its vertex positions.
+fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> ([f32; 4], [[f32; 2]; 3]) {
+    let p = tri.map(|v| screen[v as usize].position);
+    let bbox = [
+        p[0][0].min(p[1][0]).min(p[2][0]),
+        p[0][1].min(p[1][1]).min(p[2][1]),
+        -p[0][0].max(p[1][0]).max(p[2][0]),
+        -p[0][1].max(p[1][1]).max(p[2][1]),
+    ];
+    (bbox, p)
+}
+
+/// Triangles per parallel task of [`bin_tiles`].
+const TRIANGLES_PER_TASK: usize = 4096;
+
+/// The lists of [`bin`] for some tiles only, built in parallel: tile `t` is wanted when
+/// `slots[t] != u32::MAX`, and its list is number `slots[t]` (`0..lists`). The lists come in
+/// parts, one per task of consecutive triangles: list `n` is the concatenation over the returned
+/// parts of `part.tile(n)`, which holds the same triangles as [`bin`]'s list, in triangle order.
+/// Used by the CPU backward, which needs lists only where silhouette segments with a non-zero
+/// incoming gradient lie.
+pub fn bin_tiles(
+    params: &RasterParams,
+    screen: &[ScreenVertex],
+    snapped: &[[i32; 2]],
+    triangles: &[[u32; 3]],
+    slots: &[u32],
+    lists: usize,
+) -> Vec<Bins> {
+    let tiles_x = params.tiles_x as usize;
+    let range = TileRange::new(params);
+    triangles
+        .par_chunks(TRIANGLES_PER_TASK)
+        .enumerate()
+        .map(|(task, chunk)| {
+            // (list, triangle) pairs in triangle order, then sorted by list (stably).
+            let mut pairs = Vec::new();
+            for (k, &tri) in chunk.iter().enumerate() {
+                let Some([tx0, ty0, tx1, ty1]) = range.of(snapped, tri) else { continue };
+                for ty in ty0 as usize..=ty1 as usize {
+                    let row = &slots[ty * tiles_x..(ty + 1) * tiles_x];
+                    for &slot in &row[tx0 as usize..tx1 as usize + 1] {
+                        if slot != u32::MAX {
+                            pairs.push((slot, (task * TRIANGLES_PER_TASK + k) as u32));
+                        }
+                    }
+                }
+            }
+            let mut part = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
+            for &(slot, _) in &pairs {
+                part.offsets[slot as usize + 1] += 1;
+            }
+            for t in 0..lists {
+                part.offsets[t + 1] += part.offsets[t];
+            }
+            let mut cursor = part.offsets.clone();
+            part.triangles.resize(pairs.len(), 0);
+            part.boxes.resize(pairs.len(), [0.0; 4]);
+            part.vertices.resize(pairs.len(), [[0.0; 2]; 3]);
+            for &(slot, t) in &pairs {
+                let c = &mut cursor[slot as usize];
+                (part.boxes[*c as usize], part.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
+                part.triangles[*c as usize] = t;
+                *c += 1;
+            }
+            part
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tile range as first written: pixel range by Euclidean division, then tiles.
+    fn reference_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
+        let v = tri.map(|i| snapped[i as usize]);
+        if v.contains(&INVALID_SNAPPED) {
+            return None;
+        }
+        let units = params.units as i32;
+        let span = |c: [i32; 3], size: u32| -> Option<(u32, u32)> {
+            let lo = (c[0].min(c[1]).min(c[2]) - 1).div_euclid(units);
+            let hi = (c[0].max(c[1]).max(c[2]) + 1).div_euclid(units);
+            if hi < 0 || lo >= size as i32 {
+                return None;
+            }
+            Some((lo.max(0) as u32 / params.tile_size, hi.min(size as i32 - 1) as u32 / params.tile_size))
+        };
+        let (tx0, tx1) = span(v.map(|p| p[0]), params.width)?;
+        let (ty0, ty1) = span(v.map(|p| p[1]), params.height)?;
+        Some([tx0, ty0, tx1, ty1])
+    }
+
+    fn random_scene(seed: u64, params: &RasterParams) -> (Vec<ScreenVertex>, Vec<[i32; 2]>, Vec<[u32; 3]>) {
+        let mut state = seed;
+        let mut rand = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let (w, h) = (params.width as f32, params.height as f32);
+        let screen: Vec<ScreenVertex> = (0..60)
+            .map(|k| {
+                let mut p = [rand() * 1.4 * w - 0.2 * w, rand() * 1.4 * h - 0.2 * h];
+                if k % 7 == 0 {
+                    p = p.map(|c| c.round()); // on pixel borders
+                }
+                ScreenVertex { position: p, valid: (k % 23 != 5) as u32, pad: 0 }
+            })
+            .collect();
+        let snapped = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let triangles = (0..80)
+            .map(|_| {
+                let a = (rand() * 60.0) as u32 % 60;
+                // Mostly small triangles (near vertices), some large ones.
+                let near = |r: f32| ((a as f32 + (r - 0.5) * 6.0).rem_euclid(60.0)) as u32 % 60;
+                if rand() < 0.7 {
+                    [a, near(rand()), near(rand())]
+                } else {
+                    [a, (rand() * 60.0) as u32 % 60, (rand() * 60.0) as u32 % 60]
+                }
+            })
+            .collect();
+        (screen, snapped, triangles)
+    }
+
+    #[test]
+    fn tile_ranges_match_the_reference() {
+        for f in [1, 3, 4, 5, 16] {
+            for tile_size in [1, 2, 8, 64] {
+                let mut params = RasterParams::new(37, 20, f, 1.0, 0.0).unwrap();
+                params.set_tile_size(tile_size);
+                let (_, snapped, triangles) =
+                    random_scene(0x9e37_79b9_7f4a_7c15 ^ (f * 131 + tile_size) as u64, &params);
+                for &tri in &triangles {
+                    assert_eq!(
+                        triangle_tiles(&params, &snapped, tri),
+                        reference_tiles(&params, &snapped, tri),
+                        "F={f} tile {tile_size} {tri:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// `bin_tiles` lists, for each wanted tile, what `bin` lists for it.
+    #[test]
+    fn wanted_tiles_get_the_full_lists() {
+        for (f, tile_size) in [(4, 1), (3, 2), (4, 8)] {
+            let mut params = RasterParams::new(40, 24, f, 1.0, 0.0).unwrap();
+            params.set_tile_size(tile_size);
+            let (screen, snapped, triangles) = random_scene(0x2545_f491_4f6c_dd1d ^ f as u64, &params);
+            let mut full = Bins::default();
+            bin(&params, &screen, &snapped, &triangles, &mut full);
+            let mut slots = vec![u32::MAX; params.tile_count()];
+            let mut wanted = Vec::new();
+            for t in (0..params.tile_count()).rev().step_by(3) {
+                slots[t] = wanted.len() as u32;
+                wanted.push(t);
+            }
+            let parts = bin_tiles(&params, &screen, &snapped, &triangles, &slots, wanted.len());
+            for (slot, &t) in wanted.iter().enumerate() {
+                let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
+                let b: Vec<_> = parts.iter().flat_map(|p| p.tile(slot)).map(|(i, b, v)| (i, *b, *v)).collect();
+                assert_eq!(a, b, "tile {t}");
+            }
+        }
+    }
 }

@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 
 use crate::layout::{RasterParams, INVALID_SNAPPED};
+use crate::mesh::Topology;
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
 /// (positive area), with its top-left biases. `None` for culled or zero-area triangles.
@@ -56,42 +57,232 @@ impl SnappedTriangle {
     }
 }
 
-/// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
-/// writes `masks` (`pixel_count · words_per_pixel` words).
+/// Boxes (fixed-point units, `[xmin, ymin, xmax, ymax]`, closed) that hold the oriented boundary
+/// of a mesh in one view: outside them, the triangles of negative snapped area cover no sample
+/// that the triangles of positive area do not, so [`coverage`] may skip them there.
 ///
-/// The CPU splits the image into horizontal bands, one task each, with per-band triangle lists
-/// (the WGSL stage works per tile from the `bin` stage's lists instead; the masks are the same
-/// because coverage is an OR over triangles). Small triangles are tested sample by sample with
-/// incremental edge functions, large ones row by row with exact spans; both evaluate
+/// Why this is exact. For a triangle of snapped area `A ≠ 0`, the top-left rule's indicator equals
+/// `sign(A)` times a sum over its directed edges `a → b`, in the mesh's vertex order, of the
+/// half-open crossing count `χ(a → b, p)`: `+1` when `a.y ≤ p.y < b.y` and `p` lies strictly left
+/// of the edge, `−1` when `b.y ≤ p.y < a.y` and likewise, else 0 (so `χ(b → a) = −χ(a → b)`;
+/// `tl_rule_is_a_crossing_count` checks the identity exhaustively on a small grid). Summed over
+/// all triangles, `N₊(p) − N₋(p)` (the numbers of positive and negative triangles covering sample
+/// `p`) is `Σ χ` over the directed edges, in which an edge run both ways cancels: what is left is
+/// the winding number `B(p)` of the mesh's oriented boundary ([`Topology::boundary_components`]),
+/// zero outside each component's bounding box. Where `B(p) = 0`, `N₋(p) > 0` implies `N₊(p) > 0`:
+/// a sample covered by a negative triangle is covered by a positive one. So a negative triangle
+/// whose box meets no boundary box can be left out, and the union of the rest is the same, bit for
+/// bit. A closed, consistently oriented mesh (no boundary) needs no box: about half of its
+/// triangles (the back faces, whichever way the camera looks) are skipped. The identity needs
+/// every triangle in the sum, so there is no skip when a vertex is clipped.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BackFaceSkip {
+    /// The boxes; merged into at most [`BackFaceSkip::MAX_BOXES`].
+    pub boxes: Vec<[i32; 4]>,
+}
+
+impl BackFaceSkip {
+    /// Most boxes kept (components beyond are merged into the last boxes, which stays exact:
+    /// a box that holds a component's box may replace it).
+    pub const MAX_BOXES: usize = 8;
+
+    /// The skip for `topology` seen with these snapped vertices, or `None` (no skip) when a
+    /// vertex is clipped.
+    pub fn new(topology: &Topology, snapped: &[[i32; 2]]) -> Option<BackFaceSkip> {
+        if snapped.contains(&INVALID_SNAPPED) {
+            return None;
+        }
+        let components = topology.boundary_components();
+        let count = components.len();
+        let kept = count.min(Self::MAX_BOXES);
+        let mut boxes = vec![[i32::MAX, i32::MAX, i32::MIN, i32::MIN]; kept];
+        for (k, component) in components.enumerate() {
+            let b = &mut boxes[k * kept / count];
+            for &v in component {
+                let p = snapped[v as usize];
+                *b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+            }
+        }
+        Some(BackFaceSkip { boxes })
+    }
+
+    /// Whether a negative triangle with this (closed) box may be skipped.
+    #[inline]
+    fn skips(&self, b: [i32; 4]) -> bool {
+        self.boxes.iter().all(|q| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1])
+    }
+}
+
+/// What the per-triangle pass of [`coverage`] counts on the way (for the tile size of the `bin`
+/// stage, [`bin::tile_size`](super::bin::tile_size), and the render statistics).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TriangleSummary {
+    /// Triangles with a clipped vertex (not drawn).
+    pub culled: u32,
+    /// Sum over the other triangles of their snapped extent, `max(width, height)` in units,
+    /// capped at the image's larger side.
+    pub extent_sum: u64,
+    /// Number of those triangles.
+    pub counted: u64,
+}
+
+impl std::ops::Add for TriangleSummary {
+    type Output = TriangleSummary;
+    fn add(self, o: TriangleSummary) -> TriangleSummary {
+        TriangleSummary {
+            culled: self.culled + o.culled,
+            extent_sum: self.extent_sum + o.extent_sum,
+            counted: self.counted + o.counted,
+        }
+    }
+}
+
+/// A triangle that covers at least one sample position of its box: vertices in positive order,
+/// top-left biases as bits, and its sample box within the image.
+#[derive(Clone, Copy, Debug)]
+struct Setup {
+    v: [[i32; 2]; 3],
+    bias: u8,
+    cols: [i32; 2],
+    rows: [i32; 2],
+}
+
+impl Setup {
+    fn triangle(&self) -> SnappedTriangle {
+        SnappedTriangle {
+            v: self.v.map(|p| [p[0] as i64, p[1] as i64]),
+            bias: [0, 1, 2].map(|k| (self.bias >> k & 1) as i64),
+        }
+    }
+}
+
+/// `⌊n / d⌋` by a shift when `d` is a power of two.
+#[derive(Clone, Copy, Debug)]
+struct FloorDiv {
+    d: i64,
+    shift: Option<u32>,
+}
+
+impl FloorDiv {
+    fn new(d: i64) -> FloorDiv {
+        FloorDiv { d, shift: (d as u64).is_power_of_two().then(|| d.trailing_zeros()) }
+    }
+
+    #[inline(always)]
+    fn of(self, n: i64) -> i64 {
+        match self.shift {
+            Some(s) => n >> s,
+            None => n.div_euclid(self.d),
+        }
+    }
+}
+
+/// Triangles per parallel task of the per-triangle pass.
+const TRIANGLES_PER_TASK: usize = 4096;
+
+/// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
+/// writes `masks` (`pixel_count · words_per_pixel` words). With `skip`, leaves out the negative
+/// triangles it allows (see [`BackFaceSkip`]; the masks are the same).
+///
+/// The CPU works in two passes. A pass over the triangles (parallel, in chunks) sets up those
+/// that can cover a sample: a clipped vertex, a sample box (the sample positions inside the
+/// snapped bounding box) that is empty or off-image, a zero snapped area or a skippable back face
+/// leave a triangle out before any edge setup. The image is split into horizontal bands, one
+/// task each, that draw the set-up triangles overlapping them (the WGSL stage works per tile from
+/// the `bin` stage's lists instead; the masks are the same because coverage is an OR over
+/// triangles). Boxes of one sample are tested directly, small triangles sample by sample with
+/// incremental edge functions, large ones row by row with exact spans; all evaluate
 /// [`SnappedTriangle::covers`] exactly.
-pub fn coverage(params: &RasterParams, snapped: &[[i32; 2]], triangles: &[[u32; 3]], masks: &mut [u32]) {
+pub fn coverage(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    triangles: &[[u32; 3]],
+    skip: Option<&BackFaceSkip>,
+    masks: &mut [u32],
+) -> TriangleSummary {
     let f = params.supersample as i64;
+    let h = params.half_step as i64;
     let wpp = params.words_per_pixel as usize;
     let row_words = params.width as usize * wpp;
     let band_rows = band_height(params.height, triangles.len());
     let bands = params.height.div_ceil(band_rows) as usize;
-    let lists = band_lists(params, snapped, triangles, band_rows, bands);
+    let limit = params.width.max(params.height) as i64 * params.units as i64;
+    let (last_col, last_row) = (params.width as i64 * f - 1, params.height as i64 * f - 1);
+    let step = FloorDiv::new(2 * h);
+    let band_of = FloorDiv::new(band_rows as i64 * f);
+    // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.
+    let samples = |lo: i32, hi: i32| (step.of(lo as i64 + h - 1), step.of(hi as i64 - h));
+    let tasks: Vec<(Vec<Vec<Setup>>, TriangleSummary)> = triangles
+        .par_chunks(TRIANGLES_PER_TASK)
+        .map(|chunk| {
+            let mut lists = vec![Vec::new(); bands];
+            let mut summary = TriangleSummary::default();
+            for tri in chunk {
+                let v = tri.map(|i| snapped[i as usize]);
+                if v.contains(&INVALID_SNAPPED) {
+                    summary.culled += 1;
+                    continue;
+                }
+                let b = [
+                    v[0][0].min(v[1][0]).min(v[2][0]),
+                    v[0][1].min(v[1][1]).min(v[2][1]),
+                    v[0][0].max(v[1][0]).max(v[2][0]),
+                    v[0][1].max(v[1][1]).max(v[2][1]),
+                ];
+                summary.extent_sum += ((b[2] as i64 - b[0] as i64).max(b[3] as i64 - b[1] as i64)).min(limit) as u64;
+                summary.counted += 1;
+                let (c0, c1) = samples(b[0], b[2]);
+                let (r0, r1) = samples(b[1], b[3]);
+                let (c0, c1, r0, r1) = (c0.max(0), c1.min(last_col), r0.max(0), r1.min(last_row));
+                if c0 > c1 || r0 > r1 {
+                    continue;
+                }
+                let mut w = v.map(|p| [p[0] as i64, p[1] as i64]);
+                let area2 = (w[1][0] - w[0][0]) * (w[2][1] - w[0][1]) - (w[1][1] - w[0][1]) * (w[2][0] - w[0][0]);
+                if area2 == 0 || (area2 < 0 && skip.is_some_and(|s| s.skips(b))) {
+                    continue;
+                }
+                let mut v = v;
+                if area2 < 0 {
+                    w.swap(1, 2);
+                    v.swap(1, 2);
+                }
+                let bias = (0..3).fold(0u8, |bits, k| {
+                    let (a, b) = (w[k], w[(k + 1) % 3]);
+                    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                    // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
+                    bits | (((dy < 0 || (dy == 0 && dx > 0)) as u8) << k)
+                });
+                let setup = Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] };
+                for list in &mut lists[band_of.of(r0) as usize..=band_of.of(r1) as usize] {
+                    list.push(setup);
+                }
+            }
+            (lists, summary)
+        })
+        .collect();
     masks.par_chunks_mut(row_words * band_rows as usize).enumerate().for_each(|(band_index, rows)| {
         rows.fill(0);
         let pixel_row0 = band_index as i64 * band_rows as i64;
         let band_sample_rows = (pixel_row0 * f, (pixel_row0 + band_rows as i64).min(params.height as i64) * f - 1);
-        let image_cols = (0, params.width as i64 * f - 1);
         let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
-        for &t in &lists.1[lists.0[band_index] as usize..lists.0[band_index + 1] as usize] {
-            let Some(tri) = SnappedTriangle::new(snapped, triangles[t as usize]) else { continue };
-            let (cols, rows) = tri.sample_box(params);
-            let cols = (cols.0.max(image_cols.0), cols.1.min(image_cols.1));
-            let rows = (rows.0.max(band_sample_rows.0), rows.1.min(band_sample_rows.1));
-            if cols.0 > cols.1 || rows.0 > rows.1 {
-                continue;
-            }
-            if cols.1 - cols.0 < 8 {
+        for setup in tasks.iter().flat_map(|t| &t.0[band_index]) {
+            let tri = setup.triangle();
+            let cols = (setup.cols[0] as i64, setup.cols[1] as i64);
+            let rows =
+                (setup.rows[0].max(band_sample_rows.0 as i32) as i64, (setup.rows[1] as i64).min(band_sample_rows.1));
+            if cols.0 == cols.1 && rows.0 == rows.1 {
+                if tri.covers([(2 * cols.0 + 1) * h, (2 * rows.0 + 1) * h]) {
+                    band.set_span(rows.0, cols);
+                }
+            } else if cols.1 - cols.0 < 8 {
                 tri.raster_samples(params, cols, rows, &mut band);
             } else {
                 tri.raster_rows(params, cols, rows, &mut band);
             }
         }
     });
+    tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
 }
 
 /// Pixel rows per band: enough bands to keep both cores busy and the per-band mask block in
@@ -99,51 +290,6 @@ pub fn coverage(params: &RasterParams, snapped: &[[i32; 2]], triangles: &[[u32; 
 fn band_height(height: u32, triangles: usize) -> u32 {
     let bands = if triangles < 64 { 4 } else { 16 };
     height.div_ceil(bands).max(1)
-}
-
-/// CSR lists of the triangles whose snapped rows overlap each band, in triangle order.
-fn band_lists(
-    params: &RasterParams,
-    snapped: &[[i32; 2]],
-    triangles: &[[u32; 3]],
-    band_rows: u32,
-    bands: usize,
-) -> (Vec<u32>, Vec<u32>) {
-    let units = params.units as i64;
-    let range = |tri: &[u32; 3]| -> Option<(usize, usize)> {
-        let ys = tri.map(|i| snapped[i as usize]);
-        if ys.contains(&INVALID_SNAPPED) {
-            return None;
-        }
-        let lo = (ys[0][1].min(ys[1][1]).min(ys[2][1]) as i64).div_euclid(units);
-        let hi = (ys[0][1].max(ys[1][1]).max(ys[2][1]) as i64).div_euclid(units);
-        if hi < 0 || lo >= params.height as i64 {
-            return None;
-        }
-        let band = |row: i64| (row.clamp(0, params.height as i64 - 1) as u32 / band_rows) as usize;
-        Some((band(lo), band(hi)))
-    };
-    let ranges: Vec<Option<(usize, usize)>> = triangles.par_iter().with_min_len(4096).map(range).collect();
-    let mut offsets = vec![0u32; bands + 1];
-    for &(lo, hi) in ranges.iter().flatten() {
-        for b in lo..=hi {
-            offsets[b + 1] += 1;
-        }
-    }
-    for b in 0..bands {
-        offsets[b + 1] += offsets[b];
-    }
-    let mut cursor = offsets.clone();
-    let mut list = vec![0u32; offsets[bands] as usize];
-    for (t, r) in ranges.iter().enumerate() {
-        if let Some((lo, hi)) = *r {
-            for c in &mut cursor[lo..=hi] {
-                list[*c as usize] = t as u32;
-                *c += 1;
-            }
-        }
-    }
-    (offsets, list)
 }
 
 /// The mask rows of one band, written by one thread.
@@ -213,19 +359,6 @@ fn bit_range(lo: u32, hi: u32) -> u32 {
 }
 
 impl SnappedTriangle {
-    /// Sample columns and rows whose sample positions lie in the triangle's bounding box.
-    pub fn sample_box(&self, params: &RasterParams) -> ((i64, i64), (i64, i64)) {
-        let h = params.half_step as i64;
-        // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.
-        let range = |lo: i64, hi: i64| ((lo + h - 1).div_euclid(2 * h), (hi - h).div_euclid(2 * h));
-        let xs = self.v.map(|v| v[0]);
-        let ys = self.v.map(|v| v[1]);
-        (
-            range(*xs.iter().min().unwrap(), *xs.iter().max().unwrap()),
-            range(*ys.iter().min().unwrap(), *ys.iter().max().unwrap()),
-        )
-    }
-
     /// Covers rows `rows` (sample rows, within columns `cols`) by exact spans, each edge's bound
     /// stepped from row to row with an incremental floor division (a few divisions per triangle,
     /// none per row). Same samples as testing [`SnappedTriangle::covers`] at each one.
@@ -358,7 +491,7 @@ mod tests {
                 let tris = [[0u32, 1, 2]];
                 let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
                 let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-                coverage(&params, &snapped, &tris, &mut masks);
+                coverage(&params, &snapped, &tris, None, &mut masks);
                 let tri = SnappedTriangle::new(&snapped, tris[0]);
                 let h = params.half_step as i64;
                 for sy in 0..(params.height * f) as i64 {
@@ -372,5 +505,127 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `χ(a → b, p)` of [`BackFaceSkip`]: the half-open crossing count of a ray from `p` towards +x.
+    fn crossing(a: [i64; 2], b: [i64; 2], p: [i64; 2]) -> i64 {
+        // E(p) for the edge a → b (positive to the left of a downward edge, y down).
+        let e = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+        if a[1] <= p[1] && p[1] < b[1] && e > 0 {
+            1
+        } else if b[1] <= p[1] && p[1] < a[1] && e < 0 {
+            -1
+        } else {
+            0
+        }
+    }
+
+    /// The lemma behind [`BackFaceSkip`], on every triangle of a 4×4 grid (all vertex orders,
+    /// degenerate ones included) and every point around it: the top-left rule's indicator times
+    /// the sign of the area is the sum of the crossing counts of the edges in the given order.
+    #[test]
+    fn tl_rule_is_a_crossing_count() {
+        let grid: Vec<[i32; 2]> = (0..16).map(|k| [k % 4 * 2, k / 4 * 2]).collect();
+        for a in 0..16u32 {
+            for b in 0..16u32 {
+                for c in 0..16u32 {
+                    let tri = [a, b, c];
+                    let v = tri.map(|i| grid[i as usize]).map(|p| [p[0] as i64, p[1] as i64]);
+                    let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
+                    let snapped = SnappedTriangle::new(&grid, tri);
+                    for py in -1..9 {
+                        for px in -1..9 {
+                            let p = [px, py];
+                            let tl = snapped.is_some_and(|t| t.covers(p)) as i64 * area2.signum();
+                            let chi: i64 = (0..3).map(|k| crossing(v[k], v[(k + 1) % 3], p)).sum();
+                            assert_eq!(tl, chi, "{v:?} at {p:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Coverage with [`BackFaceSkip`] equals coverage without it, on closed meshes, meshes with
+    /// holes and flipped faces, under random 2D placements of the vertices (wild overlaps,
+    /// camera-independent) with many exact ties on sample positions.
+    #[test]
+    fn back_face_skip_changes_no_sample() {
+        let mut seed = 0x0123_4567_89ab_cdefu64;
+        let mut rand = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let sphere = crate::shapes::icosphere(2);
+        let closed = sphere.triangles().to_vec();
+        let mut skipped_some = false;
+        for case in 0..120 {
+            let mut triangles = closed.clone();
+            match case % 4 {
+                0 => {}
+                1 => triangles.retain(|_| rand() > 0.05), // holes
+                2 => triangles.iter_mut().filter(|_| rand() < 0.03).for_each(|t| t.swap(1, 2)), // flipped faces
+                _ => triangles.truncate(triangles.len() / 2), // a hemisphere-like patch
+            }
+            let f = [1, 3, 4, 5][case % 4];
+            let (w, h) = (23 + case as u32 % 9, 17 + case as u32 % 5);
+            let mut params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
+            params.set_tile_size(4);
+            let topology = Topology::new(sphere.positions().len(), triangles.clone()).unwrap();
+            // A random linear map of the sphere (a projection, possibly folded) plus noise,
+            // rounded to a grid of 1/(2F) pixel so samples land on edges and vertices.
+            let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand(), rand()];
+            let grid = 2.0 * f as f64;
+            let screen: Vec<ScreenVertex> = sphere
+                .positions()
+                .iter()
+                .map(|p| {
+                    let (x, y) = (p.x as f64, p.y as f64 + m[5] * p.z as f64);
+                    let noise = if case % 3 == 0 { 0.0 } else { 0.6 };
+                    let sx = w as f64 * (0.5 + 0.45 * (m[0] * x + m[1] * y)) + noise * (rand() - 0.5);
+                    let sy = h as f64 * (0.5 + 0.45 * (m[2] * x + m[3] * y)) + noise * (rand() - 0.5);
+                    let q = |c: f64| ((c * grid).round() / grid) as f32;
+                    ScreenVertex { position: [q(sx), q(sy)], valid: 1, pad: 0 }
+                })
+                .collect();
+            let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+            let skip = BackFaceSkip::new(&topology, &snapped).unwrap();
+            assert_eq!(skip.boxes.is_empty(), case % 4 == 0, "case {case}");
+            let words = params.pixel_count() * params.words_per_pixel as usize;
+            let (mut all, mut culled) = (vec![0u32; words], vec![0u32; words]);
+            let a = coverage(&params, &snapped, &triangles, None, &mut all);
+            let b = coverage(&params, &snapped, &triangles, Some(&skip), &mut culled);
+            assert_eq!(a, b, "case {case}");
+            assert_eq!(all, culled, "case {case}: skipping back faces changed the masks");
+            // The skip has teeth: dropping every negative triangle changes the open cases.
+            let positive: Vec<[u32; 3]> = triangles
+                .iter()
+                .copied()
+                .filter(|&t| {
+                    let v = t.map(|i| snapped[i as usize]).map(|p| [p[0] as i64, p[1] as i64]);
+                    (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]) > 0
+                })
+                .collect();
+            let mut front = vec![0u32; words];
+            coverage(&params, &snapped, &positive, None, &mut front);
+            if case % 4 == 0 {
+                assert_eq!(front, all, "case {case}: a closed mesh's positive triangles cover it all");
+            } else {
+                skipped_some |= front != all;
+            }
+        }
+        assert!(skipped_some, "no open case needed its negative triangles: the test has no teeth");
+    }
+
+    /// A clipped vertex turns the skip off (the identity needs every triangle).
+    #[test]
+    fn no_back_face_skip_with_a_clipped_vertex() {
+        let sphere = crate::shapes::icosphere(1);
+        let mut snapped = vec![[5, 5]; sphere.positions().len()];
+        assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_some());
+        snapped[3] = INVALID_SNAPPED;
+        assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_none());
     }
 }

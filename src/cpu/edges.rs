@@ -45,15 +45,17 @@ pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orient
 /// is not a candidate. A face `(.., a, b, ..)` that runs `a → b` lies on the side of its own
 /// orientation; one that runs `b → a` on the other.
 pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
-    let [a, b] = topology.edges()[edge];
+    let range = topology.edge_face_offsets()[edge] as usize..topology.edge_face_offsets()[edge + 1] as usize;
+    side_of(orientation, &topology.edge_face_list()[range.clone()], &topology.edge_face_forward()[range])
+}
+
+/// [`edge_side`] from the edge's faces and whether each runs along it (`a → b`).
+#[inline(always)]
+fn side_of(orientation: &[i8], faces: &[u32], forward: &[bool]) -> i32 {
     let (mut left, mut right) = (false, false);
-    for &face in topology.edge_faces(edge) {
-        let o = orientation[face as usize];
-        if o == 0 {
-            continue; // culled or degenerate: covers nothing on either side
-        }
-        let tri = topology.triangles()[face as usize];
-        let forward = (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b);
+    for (&face, &forward) in faces.iter().zip(forward) {
+        // 0 (culled or degenerate) covers nothing on either side.
+        let o = orientation[face as usize] as i32;
         let side = if forward { o } else { -o };
         left |= side > 0;
         right |= side < 0;
@@ -65,10 +67,58 @@ pub fn edge_side(orientation: &[i8], topology: &Topology, edge: usize) -> i32 {
     }
 }
 
-/// Classifies every edge of the topology. Reads the face orientations; writes `sides` (one per
-/// edge).
-pub fn edges(orientation: &[i8], topology: &Topology, sides: &mut [i32]) {
-    sides.par_iter_mut().with_min_len(4096).enumerate().for_each(|(e, side)| {
-        *side = edge_side(orientation, topology, e);
-    });
+/// Edges per parallel task of [`edges`].
+const EDGES_PER_TASK: usize = 8192;
+
+/// Classifies every edge of the topology. Reads the face orientations; writes the candidates
+/// `(edge, side)` in edge order into `candidates` (the WGSL stage writes a side per edge instead;
+/// the non-candidates are the edges left out here).
+pub fn edges(orientation: &[i8], topology: &Topology, candidates: &mut Vec<(u32, i32)>) {
+    let (offsets, faces, forward) =
+        (topology.edge_face_offsets(), topology.edge_face_list(), topology.edge_face_forward());
+    let wings = topology.edge_wings();
+    let edge_count = topology.edges().len();
+    let parts: Vec<Vec<(u32, i32)>> = (0..edge_count.div_ceil(EDGES_PER_TASK))
+        .into_par_iter()
+        .map(|task| {
+            let mut part = Vec::new();
+            for e in task * EDGES_PER_TASK..((task + 1) * EDGES_PER_TASK).min(edge_count) {
+                let [f, g] = wings[e];
+                let side = if f != u32::MAX {
+                    // One face runs along the edge, the other against it: their sides are o(f) and
+                    // −o(g), and the edge is a candidate exactly when o(f) ≠ o(g) (a shortcut of
+                    // `side_of`, checked in the tests).
+                    (orientation[f as usize] as i32 - orientation[g as usize] as i32).signum()
+                } else {
+                    let range = offsets[e] as usize..offsets[e + 1] as usize;
+                    side_of(orientation, &faces[range.clone()], &forward[range])
+                };
+                if side != 0 {
+                    part.push((e as u32, side));
+                }
+            }
+            part
+        })
+        .collect();
+    candidates.clear();
+    for part in parts {
+        candidates.extend(part);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The two-face shortcut of [`edges`] agrees with [`side_of`] for every pair of orientations.
+    #[test]
+    fn wing_shortcut_matches_side_of() {
+        for a in -1i8..=1 {
+            for b in -1i8..=1 {
+                let orientation = [a, b];
+                let general = side_of(&orientation, &[0, 1], &[true, false]);
+                assert_eq!((a as i32 - b as i32).signum(), general, "{a} {b}");
+            }
+        }
+    }
 }

@@ -1,21 +1,24 @@
 //! `gather` — CPU twin of `shaders/gather.wgsl`: per-edge gradient slots → per-vertex gradients.
 
 use glam::Vec2;
-use rayon::prelude::*;
 
 use crate::layout::EdgeGrad;
 use crate::mesh::Topology;
 
-/// Sums, for every vertex, the slots of its incident edges in the fixed order of the topology's
-/// vertex → edge CSR (deterministic, atomic-free). Reads `slots`; writes `grads` (one per vertex).
-pub fn gather(topology: &Topology, slots: &[EdgeGrad], grads: &mut [Vec2]) {
+/// Sums, for every vertex, the slots of its incident candidate edges in edge order. Reads the
+/// candidates `(edge, side)` (in edge order, as the `edges` stage lists them) and their `slots`
+/// (same order); writes `grads` (one per vertex).
+///
+/// The WGSL stage sums each vertex's incident edges over the topology's vertex → edge CSR, which
+/// lists them in edge order; the slots of the other edges are `+0.0`, and adding `+0.0` to a sum
+/// that starts at `+0.0` changes no bit. So scattering the candidates' slots in edge order gives
+/// the same bits, deterministically, in time proportional to the number of candidates.
+pub fn gather(topology: &Topology, candidates: &[(u32, i32)], slots: &[EdgeGrad], grads: &mut [Vec2]) {
     let edges = topology.edges();
-    grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
-        let mut sum = Vec2::ZERO;
-        for &e in topology.vertex_edges(v) {
-            let slot = &slots[e as usize];
-            sum += Vec2::from(if edges[e as usize][0] as usize == v { slot.a } else { slot.b });
-        }
-        *g = sum;
-    });
+    grads.fill(Vec2::ZERO);
+    for (&(e, _), slot) in candidates.iter().zip(slots) {
+        let [a, b] = edges[e as usize];
+        grads[a as usize] += Vec2::from(slot.a);
+        grads[b as usize] += Vec2::from(slot.b);
+    }
 }

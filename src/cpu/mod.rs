@@ -1,10 +1,15 @@
 //! The CPU backend: one function per stage, each the twin of the WGSL shader of the same name
 //! (DESIGN.md §4), parallel with rayon where it pays.
 //!
-//! Forward: [`project`](project::project) (+ [`snap`](project::snap)) → [`bin`](bin::bin) → [`coverage`](coverage::coverage)
+//! Forward: [`project`](project::project) (+ [`snap`](project::snap)) → [`coverage`](coverage::coverage)
 //! → [`resolve`](resolve::resolve) → [`edges`](edges::edges) (after
 //! [`face_orientations`](edges::face_orientations)).
-//! Backward: [`edge_grad`](edge_grad::edge_grad) → [`gather`](gather::gather).
+//! Backward: [`edge_grad`](edge_grad::edge_grad) (which bins, with [`bin::bin_tiles`], only the tiles
+//! its segments need) → [`gather`](gather::gather).
+//!
+//! The forward chooses the tile size (as [`bin::choose_tile_size`] does, from the extents the
+//! coverage pass adds up) but builds no tile lists: only the
+//! backward uses them, and only in the few tiles a silhouette with a non-zero `∂L/∂I` crosses.
 
 pub mod bin;
 pub mod coverage;
@@ -16,9 +21,8 @@ pub mod resolve;
 
 use glam::Vec2;
 
-use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
+use crate::layout::{RasterParams, ScreenVertex};
 use crate::mesh::Topology;
-use bin::Bins;
 use edge_grad::SegmentStats;
 
 /// What the forward of one view keeps for its backward.
@@ -30,39 +34,47 @@ pub struct ViewState {
     pub screen: Vec<ScreenVertex>,
     /// Projected vertices snapped to the fixed-point grid.
     pub snapped: Vec<[i32; 2]>,
-    /// Tile → triangle lists.
-    pub bins: Bins,
-    /// Per-edge silhouette side from the `edges` stage.
-    pub sides: Vec<i32>,
+    /// Candidate edges `(edge, side)` from the `edges` stage, in edge order.
+    pub candidates: Vec<(u32, i32)>,
     /// Triangles culled because a vertex was clipped.
     pub culled_triangles: u32,
 }
 
-/// Forward of one view from screen vertices: returns the state and the image.
-pub fn forward_view(mut params: RasterParams, screen: Vec<ScreenVertex>, topology: &Topology) -> (ViewState, Vec<f32>) {
+/// Forward of one view from screen vertices and their snapped positions ([`project::snap`], or both
+/// from [`project::project_and_snap`]): returns the state and the image.
+pub fn forward_view(
+    mut params: RasterParams,
+    screen: Vec<ScreenVertex>,
+    snapped: Vec<[i32; 2]>,
+    topology: &Topology,
+) -> (ViewState, Vec<f32>) {
     let triangles = topology.triangles();
-    let mut snapped = vec![[0; 2]; screen.len()];
-    project::snap(&params, &screen, &mut snapped);
-    params.set_tile_size(bin::choose_tile_size(&params, &snapped, triangles));
-    let mut bins = Bins::default();
-    let culled_triangles = bin::bin(&params, &screen, &snapped, triangles, &mut bins);
+    let skip = coverage::BackFaceSkip::new(topology, &snapped);
     let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-    coverage::coverage(&params, &snapped, triangles, &mut masks);
+    let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
+    params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
     let mut image = vec![0.0; params.pixel_count()];
     resolve::resolve(&params, &masks, &mut image);
     let mut orientation = vec![0i8; triangles.len()];
     edges::face_orientations(&screen, triangles, &mut orientation);
-    let mut sides = vec![0; topology.edges().len()];
-    edges::edges(&orientation, topology, &mut sides);
-    (ViewState { params, screen, snapped, bins, sides, culled_triangles }, image)
+    let mut candidates = Vec::new();
+    edges::edges(&orientation, topology, &mut candidates);
+    (ViewState { params, screen, snapped, candidates, culled_triangles: summary.culled }, image)
 }
 
 /// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.
 pub fn backward_view(state: &ViewState, topology: &Topology, d_image: &[f32]) -> (Vec<Vec2>, SegmentStats) {
-    let mut slots = vec![EdgeGrad::default(); topology.edges().len()];
-    let stats =
-        edge_grad::edge_grad(&state.params, &state.screen, topology, &state.sides, &state.bins, d_image, &mut slots);
+    let mut slots = Vec::new();
+    let stats = edge_grad::edge_grad(
+        &state.params,
+        &state.screen,
+        &state.snapped,
+        topology,
+        &state.candidates,
+        d_image,
+        &mut slots,
+    );
     let mut grads = vec![Vec2::ZERO; topology.vertex_count()];
-    gather::gather(topology, &slots, &mut grads);
+    gather::gather(topology, &state.candidates, &slots, &mut grads);
     (grads, stats)
 }

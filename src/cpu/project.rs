@@ -23,3 +23,23 @@ pub fn snap(params: &RasterParams, screen: &[ScreenVertex], snapped: &mut [[i32;
         *out = params.snap_vertex(v);
     });
 }
+
+/// [`project`] then [`snap`] in one pass (what `shaders/project.wgsl` does): fills `screen` and
+/// `snapped` (resized to the number of positions) for one view.
+pub fn project_and_snap(
+    view: &ViewParams,
+    params: &RasterParams,
+    positions: &[Vec3],
+    screen: &mut Vec<ScreenVertex>,
+    snapped: &mut Vec<[i32; 2]>,
+) {
+    positions
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&p| {
+            let (position, valid) = view.project(p);
+            let s = ScreenVertex { position: position.to_array(), valid: valid as u32, pad: 0 };
+            (s, params.snap_vertex(&s))
+        })
+        .unzip_into_vecs(screen, snapped);
+}
