@@ -76,14 +76,12 @@ fn candidate_pixels(scene: &Scene) -> Vec<bool> {
     let topology = &scene.topology;
     let mut orientation = vec![0i8; topology.triangles().len()];
     diffsil::cpu::edges::face_orientations(&screen, topology.triangles(), &mut orientation);
-    let mut sides = vec![0i32; topology.edges().len()];
-    diffsil::cpu::edges::edges(&orientation, topology, &mut sides);
+    let mut candidates = Vec::new();
+    diffsil::cpu::edges::edges(&orientation, topology, &mut candidates);
     let n = scene.resolution as usize;
     let mut hit = vec![false; n * n];
-    for (edge, side) in topology.edges().iter().zip(&sides) {
-        if *side == 0 {
-            continue;
-        }
+    for &(e, _side) in &candidates {
+        let edge = topology.edges()[e as usize];
         let (a, b) = (scene.screen[edge[0] as usize], scene.screen[edge[1] as usize]);
         let steps = ((b - a).length() * 64.0).ceil() as usize + 1;
         for k in 0..=steps {
