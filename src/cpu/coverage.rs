@@ -79,6 +79,8 @@ impl SnappedTriangle {
 pub struct BackFaceSkip {
     /// The boxes; merged into at most [`BackFaceSkip::MAX_BOXES`].
     pub boxes: Vec<[i32; 4]>,
+    /// Their bounding box (empty when there is none), tested first.
+    pub union: [i32; 4],
 }
 
 impl BackFaceSkip {
@@ -103,13 +105,17 @@ impl BackFaceSkip {
                 *b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
             }
         }
-        Some(BackFaceSkip { boxes })
+        let union = boxes.iter().fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |u, b| {
+            [u[0].min(b[0]), u[1].min(b[1]), u[2].max(b[2]), u[3].max(b[3])]
+        });
+        Some(BackFaceSkip { boxes, union })
     }
 
     /// Whether a negative triangle with this (closed) box may be skipped.
     #[inline]
     fn skips(&self, b: [i32; 4]) -> bool {
-        self.boxes.iter().all(|q| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1])
+        let misses = |q: &[i32; 4]| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1];
+        misses(&self.union) || self.boxes.iter().all(misses)
     }
 }
 
@@ -219,7 +225,8 @@ pub fn coverage(
             let mut summary = TriangleSummary::default();
             for tri in chunk {
                 let v = tri.map(|i| snapped[i as usize]);
-                if v.contains(&INVALID_SNAPPED) {
+                // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
+                if v[0][0] == INVALID_SNAPPED[0] || v[1][0] == INVALID_SNAPPED[0] || v[2][0] == INVALID_SNAPPED[0] {
                     summary.culled += 1;
                     continue;
                 }
