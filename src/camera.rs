@@ -206,6 +206,7 @@ pub struct ViewParams {
 }
 
 impl ViewParams {
+    #[inline]
     fn camera_space(&self, p: Vec3) -> Vec3 {
         let h = p.extend(1.0);
         Vec3::new(
@@ -217,6 +218,7 @@ impl ViewParams {
 
     /// Projects `p`: pixel coordinates, and whether the point is inside the near/far range and the
     /// coordinate limit.
+    #[inline]
     pub fn project(&self, p: Vec3) -> (Vec2, bool) {
         let c = self.camera_space(p);
         let depth = -c.z;
@@ -235,6 +237,7 @@ impl ViewParams {
     }
 
     /// Jacobian of [`ViewParams::project`] at `p`: rows `∂x/∂p` and `∂y/∂p`. Zero for clipped points.
+    #[inline]
     pub fn jacobian(&self, p: Vec3) -> [Vec3; 2] {
         let c = self.camera_space(p);
         let r0 = Vec3::from_slice(&self.row0[..3]);

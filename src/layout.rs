@@ -112,6 +112,7 @@ impl RasterParams {
 
     /// Snaps a pixel coordinate to the fixed-point grid: `floor(x·units + 0.5)` in f32, the same
     /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`](crate::COORD_LIMIT)).
+    #[inline]
     pub fn snap(&self, x: f32) -> i32 {
         let y = x * self.units as f32 + 0.5;
         let t = y as i32; // truncation toward zero, then down for negative non-integers
@@ -119,6 +120,7 @@ impl RasterParams {
     }
 
     /// Snaps a screen vertex; clipped vertices become [`INVALID_SNAPPED`].
+    #[inline]
     pub fn snap_vertex(&self, v: &ScreenVertex) -> [i32; 2] {
         if v.valid == 0 {
             INVALID_SNAPPED

@@ -79,6 +79,8 @@ impl SnappedTriangle {
 pub struct BackFaceSkip {
     /// The boxes; merged into at most [`BackFaceSkip::MAX_BOXES`].
     pub boxes: Vec<[i32; 4]>,
+    /// Their bounding box (empty when there is none), tested first.
+    pub union: [i32; 4],
 }
 
 impl BackFaceSkip {
@@ -103,13 +105,17 @@ impl BackFaceSkip {
                 *b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
             }
         }
-        Some(BackFaceSkip { boxes })
+        let union = boxes.iter().fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |u, b| {
+            [u[0].min(b[0]), u[1].min(b[1]), u[2].max(b[2]), u[3].max(b[3])]
+        });
+        Some(BackFaceSkip { boxes, union })
     }
 
     /// Whether a negative triangle with this (closed) box may be skipped.
     #[inline]
     fn skips(&self, b: [i32; 4]) -> bool {
-        self.boxes.iter().all(|q| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1])
+        let misses = |q: &[i32; 4]| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1];
+        misses(&self.union) || self.boxes.iter().all(misses)
     }
 }
 
@@ -156,24 +162,107 @@ impl Setup {
     }
 }
 
-/// `⌊n / d⌋` by a shift when `d` is a power of two.
-#[derive(Clone, Copy, Debug)]
-struct FloorDiv {
-    d: i64,
-    shift: Option<u32>,
+/// `⌊n / d⌋` for a fixed `d > 0`: a shift or a division, so that the per-triangle pass is
+/// compiled once for each, without a branch per division.
+trait FloorDiv: Copy {
+    fn of(self, n: i64) -> i64;
 }
 
-impl FloorDiv {
-    fn new(d: i64) -> FloorDiv {
-        FloorDiv { d, shift: (d as u64).is_power_of_two().then(|| d.trailing_zeros()) }
-    }
+/// Division by `2^k`.
+#[derive(Clone, Copy, Debug)]
+struct Shift(u32);
 
+impl Shift {
+    /// `Shift` for `d` when it is a power of two.
+    fn of(d: i64) -> Option<Shift> {
+        (d as u64).is_power_of_two().then(|| Shift(d.trailing_zeros()))
+    }
+}
+
+impl FloorDiv for Shift {
     #[inline(always)]
     fn of(self, n: i64) -> i64 {
-        match self.shift {
-            Some(s) => n >> s,
-            None => n.div_euclid(self.d),
+        n >> self.0
+    }
+}
+
+/// Division by any positive number.
+#[derive(Clone, Copy, Debug)]
+struct Divide(i64);
+
+impl FloorDiv for Divide {
+    #[inline(always)]
+    fn of(self, n: i64) -> i64 {
+        n.div_euclid(self.0)
+    }
+}
+
+/// The per-triangle pass of [`coverage`], its constants unpacked.
+struct SetupPass<'a> {
+    /// Half the sample step, units.
+    h: i64,
+    /// Last sample column and row of the image.
+    last: [i64; 2],
+    /// Cap on a triangle's extent (the image's larger side, units).
+    limit: i64,
+    skip: Option<&'a BackFaceSkip>,
+}
+
+impl SetupPass<'_> {
+    /// Sets up the triangles of `chunk` into the band `lists`; counts them. `step` divides by the
+    /// sample step, `band_of` by the sample rows of a band.
+    fn run(
+        &self,
+        step: impl FloorDiv,
+        band_of: impl FloorDiv,
+        snapped: &[[i32; 2]],
+        chunk: &[[u32; 3]],
+        lists: &mut [Vec<Setup>],
+    ) -> TriangleSummary {
+        let h = self.h;
+        let mut summary = TriangleSummary::default();
+        for tri in chunk {
+            let v = tri.map(|i| snapped[i as usize]);
+            // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
+            if v[0][0] == INVALID_SNAPPED[0] || v[1][0] == INVALID_SNAPPED[0] || v[2][0] == INVALID_SNAPPED[0] {
+                summary.culled += 1;
+                continue;
+            }
+            let b = [
+                v[0][0].min(v[1][0]).min(v[2][0]),
+                v[0][1].min(v[1][1]).min(v[2][1]),
+                v[0][0].max(v[1][0]).max(v[2][0]),
+                v[0][1].max(v[1][1]).max(v[2][1]),
+            ];
+            summary.extent_sum += ((b[2] as i64 - b[0] as i64).max(b[3] as i64 - b[1] as i64)).min(self.limit) as u64;
+            summary.counted += 1;
+            // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.
+            let c0 = step.of(b[0] as i64 + h - 1).max(0);
+            let c1 = step.of(b[2] as i64 - h).min(self.last[0]);
+            let r0 = step.of(b[1] as i64 + h - 1).max(0);
+            let r1 = step.of(b[3] as i64 - h).min(self.last[1]);
+            if c0 > c1 || r0 > r1 {
+                continue;
+            }
+            let w = v.map(|p| [p[0] as i64, p[1] as i64]);
+            let area2 = (w[1][0] - w[0][0]) * (w[2][1] - w[0][1]) - (w[1][1] - w[0][1]) * (w[2][0] - w[0][0]);
+            if area2 == 0 || (area2 < 0 && self.skip.is_some_and(|s| s.skips(b))) {
+                continue;
+            }
+            let (v, w) = if area2 < 0 { ([v[0], v[2], v[1]], [w[0], w[2], w[1]]) } else { (v, w) };
+            let mut bias = 0u8;
+            for k in 0..3 {
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
+                bias |= ((dy < 0 || (dy == 0 && dx > 0)) as u8) << k;
+            }
+            let setup = Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] };
+            for list in &mut lists[band_of.of(r0) as usize..=band_of.of(r1) as usize] {
+                list.push(setup);
+            }
         }
+        summary
     }
 }
 
@@ -206,58 +295,23 @@ pub fn coverage(
     let row_words = params.width as usize * wpp;
     let band_rows = band_height(params.height, triangles.len());
     let bands = params.height.div_ceil(band_rows) as usize;
-    let limit = params.width.max(params.height) as i64 * params.units as i64;
-    let (last_col, last_row) = (params.width as i64 * f - 1, params.height as i64 * f - 1);
-    let step = FloorDiv::new(2 * h);
-    let band_of = FloorDiv::new(band_rows as i64 * f);
-    // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.
-    let samples = |lo: i32, hi: i32| (step.of(lo as i64 + h - 1), step.of(hi as i64 - h));
+    let pass = SetupPass {
+        h,
+        last: [params.width as i64 * f - 1, params.height as i64 * f - 1],
+        limit: params.width.max(params.height) as i64 * params.units as i64,
+        skip,
+    };
+    let (step, band_of) = (2 * h, band_rows as i64 * f);
     let tasks: Vec<(Vec<Vec<Setup>>, TriangleSummary)> = triangles
         .par_chunks(TRIANGLES_PER_TASK)
         .map(|chunk| {
             let mut lists = vec![Vec::new(); bands];
-            let mut summary = TriangleSummary::default();
-            for tri in chunk {
-                let v = tri.map(|i| snapped[i as usize]);
-                if v.contains(&INVALID_SNAPPED) {
-                    summary.culled += 1;
-                    continue;
-                }
-                let b = [
-                    v[0][0].min(v[1][0]).min(v[2][0]),
-                    v[0][1].min(v[1][1]).min(v[2][1]),
-                    v[0][0].max(v[1][0]).max(v[2][0]),
-                    v[0][1].max(v[1][1]).max(v[2][1]),
-                ];
-                summary.extent_sum += ((b[2] as i64 - b[0] as i64).max(b[3] as i64 - b[1] as i64)).min(limit) as u64;
-                summary.counted += 1;
-                let (c0, c1) = samples(b[0], b[2]);
-                let (r0, r1) = samples(b[1], b[3]);
-                let (c0, c1, r0, r1) = (c0.max(0), c1.min(last_col), r0.max(0), r1.min(last_row));
-                if c0 > c1 || r0 > r1 {
-                    continue;
-                }
-                let mut w = v.map(|p| [p[0] as i64, p[1] as i64]);
-                let area2 = (w[1][0] - w[0][0]) * (w[2][1] - w[0][1]) - (w[1][1] - w[0][1]) * (w[2][0] - w[0][0]);
-                if area2 == 0 || (area2 < 0 && skip.is_some_and(|s| s.skips(b))) {
-                    continue;
-                }
-                let mut v = v;
-                if area2 < 0 {
-                    w.swap(1, 2);
-                    v.swap(1, 2);
-                }
-                let bias = (0..3).fold(0u8, |bits, k| {
-                    let (a, b) = (w[k], w[(k + 1) % 3]);
-                    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                    // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
-                    bits | (((dy < 0 || (dy == 0 && dx > 0)) as u8) << k)
-                });
-                let setup = Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] };
-                for list in &mut lists[band_of.of(r0) as usize..=band_of.of(r1) as usize] {
-                    list.push(setup);
-                }
-            }
+            let summary = match (Shift::of(step), Shift::of(band_of)) {
+                (Some(s), Some(b)) => pass.run(s, b, snapped, chunk, &mut lists),
+                (Some(s), None) => pass.run(s, Divide(band_of), snapped, chunk, &mut lists),
+                (None, Some(b)) => pass.run(Divide(step), b, snapped, chunk, &mut lists),
+                (None, None) => pass.run(Divide(step), Divide(band_of), snapped, chunk, &mut lists),
+            };
             (lists, summary)
         })
         .collect();
