@@ -81,8 +81,9 @@ fn median_ms(step: &mut Step) -> f64 {
     times[times.len() / 2]
 }
 
-/// The backends to compare: the CPU, and the GPU when an adapter opens (on a machine whose only
-/// adapter is a software one, lavapipe, set `DIFFSIL_ADAPTER=vulkan` or `llvmpipe` to include it).
+/// The backends to compare: the CPU, and the GPU when an adapter opens (the one
+/// `GpuOptions::from_env` picks: the best hardware GPU, else a software one such as lavapipe;
+/// `DIFFSIL_ADAPTER` picks another).
 fn backends() -> Vec<(&'static str, Backend)> {
     let mut backends = vec![("cpu", Backend::Cpu)];
     // Profiling (DIFFSIL_GPU_PROFILE) adds waits: time without it, profile separately below.
