@@ -3,7 +3,8 @@
 //! Use it through [`crate::Renderer::with_backend`] with [`crate::Backend::Gpu`] (or
 //! [`crate::Backend::Auto`]); the same `render` / `backward` calls then run the stages of
 //! [`stages`] (one WGSL file per CPU stage, all views of a frame in one dispatch each, one
-//! submission per forward and one per backward). Screen-space input gives images bit-identical
+//! submission per forward and one per backward; `Renderer::squared_error_step` runs forward,
+//! loss and backward in one submission). Screen-space input gives images bit-identical
 //! to the CPU backend's and gradients equal to ~1e-7 relative (`tests/gpu_vs_cpu.rs`).
 //!
 //! This module holds the plumbing the stages share:
@@ -31,10 +32,11 @@
 //!
 //! ## llvmpipe (lavapipe)
 //! Mesa's software rasterizer ends all loops of a shader invocation after 65,535 iterations in
-//! total, silently. The stages keep their invocations short (large triangles are listed per view,
-//! long edges are cut into 16-pixel parts) and count their iterations; a frame that would exceed
-//! the limit there (thousands of triangles in one tile) is an
-//! [`crate::Error::GpuLimit`] on llvmpipe, never a wrong result. Hardware GPUs have no such limit.
+//! total, silently. The stages keep their invocations short (tiles sized from the triangle
+//! density, large triangles listed per view, long edges cut into parts of 4 to 16 pixels) and
+//! count their iterations; a frame that would still exceed the limit there (thousands of
+//! triangles in one pixel) is an [`crate::Error::GpuLimit`] on llvmpipe, never a wrong result.
+//! Hardware GPUs have no such limit.
 //!
 //! ## 1D dispatches beyond 65,535 workgroups
 //! A dimension of a dispatch holds at most `max_compute_workgroups_per_dimension` (65,535 by
