@@ -476,12 +476,14 @@ impl SnappedTriangle {
         let mut row_e = [0, 1, 2].map(|k| self.edge_function(k, p0) + self.bias[k]);
         let step_x = [0, 1, 2].map(|k| -(self.v[(k + 1) % 3][1] - self.v[k][1]) * 2 * h);
         let step_y = [0, 1, 2].map(|k| (self.v[(k + 1) % 3][0] - self.v[k][0]) * 2 * h);
-        for sy in rows.0..=rows.1 {
+        // Walk pixel by pixel and row by row (no division per sample or row).
+        let (first_pixel, first_a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
+        let (mut pixel_row, mut b) = ((rows.0 / f - band.pixel_row0) as usize, (rows.0 % f) as u32);
+        for _ in rows.0..=rows.1 {
             let mut e = row_e;
-            let row = (sy / f - band.pixel_row0) as usize * band.row_words;
-            let bit_row = (sy % f) as u32 * f as u32;
-            // Walk pixel by pixel (no division per sample).
-            let (mut pixel, mut a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
+            let row = pixel_row * band.row_words;
+            let bit_row = b * f as u32;
+            let (mut pixel, mut a) = (first_pixel, first_a);
             for _ in cols.0..=cols.1 {
                 if e[0] > 0 && e[1] > 0 && e[2] > 0 {
                     let bit = bit_row + a;
@@ -498,6 +500,11 @@ impl SnappedTriangle {
             }
             for k in 0..3 {
                 row_e[k] += step_y[k];
+            }
+            b += 1;
+            if b == f as u32 {
+                b = 0;
+                pixel_row += 1;
             }
         }
     }
