@@ -49,16 +49,25 @@ pub fn forward_view(
     topology: &Topology,
 ) -> (ViewState, Vec<f32>) {
     let triangles = topology.triangles();
-    let skip = coverage::BackFaceSkip::new(topology, &snapped);
-    let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-    let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
+    // Coverage and the edge classification are independent: run them side by side.
+    let ((summary, image), candidates) = rayon::join(
+        || {
+            let skip = coverage::BackFaceSkip::new(topology, &snapped);
+            let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
+            let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
+            let mut image = vec![0.0; params.pixel_count()];
+            resolve::resolve(&params, &masks, &mut image);
+            (summary, image)
+        },
+        || {
+            let mut orientation = vec![0i8; triangles.len()];
+            edges::face_orientations(&screen, triangles, &mut orientation);
+            let mut candidates = Vec::new();
+            edges::edges(&orientation, topology, &mut candidates);
+            candidates
+        },
+    );
     params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
-    let mut image = vec![0.0; params.pixel_count()];
-    resolve::resolve(&params, &masks, &mut image);
-    let mut orientation = vec![0i8; triangles.len()];
-    edges::face_orientations(&screen, triangles, &mut orientation);
-    let mut candidates = Vec::new();
-    edges::edges(&orientation, topology, &mut candidates);
     (ViewState { params, screen, snapped, candidates, culled_triangles: summary.culled }, image)
 }
 
