@@ -435,6 +435,7 @@ struct Band<'a> {
 
 impl Band<'_> {
     /// Sets samples `span.0..=span.1` of sample row `sy`, a pixel's worth of bits at a time.
+    #[inline]
     fn set_span(&mut self, sy: i64, span: (i64, i64)) {
         let f = self.params.supersample;
         let (sy, first, last) = (sy as u32, span.0 as u32, span.1 as u32);
@@ -442,10 +443,25 @@ impl Band<'_> {
             if f == 4 { (sy >> 2, first >> 2, last >> 2) } else { (sy / f, first / f, last / f) };
         let row = (sy_pixel - self.pixel_row0 as u32) as usize * self.row_words;
         let bit_row = (sy - sy_pixel * f) * f;
+        let (a_first, a_last) = (first - first_pixel * f, last - last_pixel * f);
+        if self.wpp == 1 {
+            // One word per pixel (F ≤ 5): the pixels strictly inside the span get a whole row of
+            // F bits, the two ends their part of it.
+            let row_bits = bit_range(bit_row, bit_row + f - 1);
+            let words = &mut self.rows[row + first_pixel as usize..=row + last_pixel as usize];
+            if let [only] = words {
+                *only |= bit_range(bit_row + a_first, bit_row + a_last);
+            } else if let [head, middle @ .., tail] = words {
+                *head |= bit_range(bit_row + a_first, bit_row + f - 1);
+                middle.iter_mut().for_each(|w| *w |= row_bits);
+                *tail |= bit_range(bit_row, bit_row + a_last);
+            }
+            return;
+        }
         let mut pixel = first_pixel;
-        let mut a0 = first - pixel * f;
+        let mut a0 = a_first;
         while pixel <= last_pixel {
-            let a1 = if pixel == last_pixel { last - pixel * f } else { f - 1 };
+            let a1 = if pixel == last_pixel { a_last } else { f - 1 };
             let (lo, hi) = (bit_row + a0, bit_row + a1);
             let base = row + pixel as usize * self.wpp;
             if hi / 32 == lo / 32 {
