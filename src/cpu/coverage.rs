@@ -488,7 +488,8 @@ enum Bound {
 /// `(⌊n / m⌋, n mod m)` for `m > 0`, exactly: an f64 estimate corrected with integer arithmetic
 /// (much cheaper than a 64-bit integer division).
 fn floor_div(n: i64, m: i64) -> (i64, i64) {
-    let mut q = (n as f64 / m as f64).floor() as i64;
+    // Truncation (not `floor`, a library call without SSE4.1): the loops correct any estimate.
+    let mut q = (n as f64 / m as f64) as i64;
     let mut r = n - q * m;
     while r < 0 {
         q -= 1;
