@@ -5,6 +5,9 @@
 //! each side, overlaps. The margin makes the lists conservative for the float geometry as well,
 //! so the `edge_grad` stage finds every triangle that can cover a point of a tile. Triangles with
 //! a clipped vertex are not listed (they are culled); nor are those entirely off-screen.
+//!
+//! The CPU pipeline itself builds lists only for the tiles its backward needs ([`bin_tiles`]);
+//! [`bin`] builds them all, as the WGSL stages do.
 
 use rayon::prelude::*;
 

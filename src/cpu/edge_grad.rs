@@ -279,7 +279,7 @@ const EDGES_PER_TASK: usize = 64;
 ///
 /// Reads screen and snapped vertices, triangles, the candidates `(edge, side)` of the `edges`
 /// stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
-/// The result is the same as with the full bins of [`bin::bin`](super::bin::bin): an occluder
+/// The result is the same as with the full bins of [`bin::bin`]: an occluder
 /// of a segment overlaps its tile, so it is in that tile's list either way.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_grad(
