@@ -5,6 +5,9 @@
 //! each side, overlaps. The margin makes the lists conservative for the float geometry as well,
 //! so the `edge_grad` stage finds every triangle that can cover a point of a tile. Triangles with
 //! a clipped vertex are not listed (they are culled); nor are those entirely off-screen.
+//!
+//! The CPU pipeline itself builds lists only for the tiles its backward needs ([`bin_tiles`]);
+//! [`bin`] builds them all, as the WGSL stages do.
 
 use rayon::prelude::*;
 
@@ -198,6 +201,73 @@ fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> ([f32; 4], [[f32; 2]; 3]
     (bbox, p)
 }
 
+/// `⌊n / tile side in units⌋`, as a shift or a division (so that the loop of [`tile_pairs`] is
+/// compiled once for each, without a branch per triangle).
+trait TileDiv: Copy {
+    fn div(self, n: u64) -> usize;
+}
+
+/// Division by a power of two.
+#[derive(Clone, Copy)]
+struct Shift(u32);
+
+impl TileDiv for Shift {
+    #[inline(always)]
+    fn div(self, n: u64) -> usize {
+        (n >> self.0) as usize
+    }
+}
+
+/// Division by any positive number.
+#[derive(Clone, Copy)]
+struct Divide(u64);
+
+impl TileDiv for Divide {
+    #[inline(always)]
+    fn div(self, n: u64) -> usize {
+        (n / self.0) as usize
+    }
+}
+
+/// Appends `(slots[t], first + k)` for each wanted tile `t` in the tile range of the `k`-th
+/// triangle of `chunk` ([`triangle_tiles`], computed here with `div`).
+#[allow(clippy::too_many_arguments)]
+fn tile_pairs<D: TileDiv>(
+    div: D,
+    range: &TileRange,
+    tiles_x: usize,
+    slots: &[u32],
+    snapped: &[[i32; 2]],
+    chunk: &[[u32; 3]],
+    first: u32,
+    pairs: &mut Vec<(u32, u32)>,
+) {
+    let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
+    for (k, tri) in chunk.iter().enumerate() {
+        let [a, b, c] = tri.map(|i| snapped[i as usize]);
+        // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
+        if a[0] == INVALID_SNAPPED[0] || b[0] == INVALID_SNAPPED[0] || c[0] == INVALID_SNAPPED[0] {
+            continue;
+        }
+        let x0 = a[0].min(b[0]).min(c[0]) as i64 - 1;
+        let y0 = a[1].min(b[1]).min(c[1]) as i64 - 1;
+        let x1 = a[0].max(b[0]).max(c[0]) as i64 + 1;
+        let y1 = a[1].max(b[1]).max(c[1]) as i64 + 1;
+        if x1 < 0 || y1 < 0 || x0 >= range.limit[0] || y0 >= range.limit[1] {
+            continue;
+        }
+        let (tx0, tx1) = (div.div(x0.max(0) as u64), div.div(x1 as u64).min(last_x));
+        let (ty0, ty1) = (div.div(y0.max(0) as u64), div.div(y1 as u64).min(last_y));
+        for ty in ty0..=ty1 {
+            for &slot in &slots[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
+                if slot != u32::MAX {
+                    pairs.push((slot, first + k as u32));
+                }
+            }
+        }
+    }
+}
+
 /// Triangles per parallel task of [`bin_tiles`].
 const TRIANGLES_PER_TASK: usize = 4096;
 
@@ -222,17 +292,10 @@ pub fn bin_tiles(
         .enumerate()
         .map(|(task, chunk)| {
             // (list, triangle) pairs in triangle order, then sorted by list (stably).
-            let mut pairs = Vec::new();
-            for (k, &tri) in chunk.iter().enumerate() {
-                let Some([tx0, ty0, tx1, ty1]) = range.of(snapped, tri) else { continue };
-                for ty in ty0 as usize..=ty1 as usize {
-                    let row = &slots[ty * tiles_x..(ty + 1) * tiles_x];
-                    for &slot in &row[tx0 as usize..tx1 as usize + 1] {
-                        if slot != u32::MAX {
-                            pairs.push((slot, (task * TRIANGLES_PER_TASK + k) as u32));
-                        }
-                    }
-                }
+            let (mut pairs, first) = (Vec::new(), (task * TRIANGLES_PER_TASK) as u32);
+            match range.shift {
+                Some(shift) => tile_pairs(Shift(shift), &range, tiles_x, slots, snapped, chunk, first, &mut pairs),
+                None => tile_pairs(Divide(range.tile_units), &range, tiles_x, slots, snapped, chunk, first, &mut pairs),
             }
             let mut part = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
             for &(slot, _) in &pairs {

@@ -154,6 +154,24 @@ struct Setup {
 }
 
 impl Setup {
+    /// Draws the triangle's samples in sample rows `rows` (within its own) into `band`.
+    #[inline(always)]
+    fn draw(&self, params: &RasterParams, rows: (i64, i64), band: &mut Band<'_>) {
+        let h = params.half_step as i64;
+        let tri = self.triangle();
+        let cols = (self.cols[0] as i64, self.cols[1] as i64);
+        let rows = ((self.rows[0] as i64).max(rows.0), (self.rows[1] as i64).min(rows.1));
+        if cols.0 == cols.1 && rows.0 == rows.1 {
+            if tri.covers([(2 * cols.0 + 1) * h, (2 * rows.0 + 1) * h]) {
+                band.set_span(rows.0, cols);
+            }
+        } else if cols.1 - cols.0 < 8 {
+            tri.raster_samples(params, cols, rows, band);
+        } else {
+            tri.raster_rows(params, cols, rows, band);
+        }
+    }
+
     fn triangle(&self) -> SnappedTriangle {
         SnappedTriangle {
             v: self.v.map(|p| [p[0] as i64, p[1] as i64]),
@@ -209,15 +227,15 @@ struct SetupPass<'a> {
 }
 
 impl SetupPass<'_> {
-    /// Sets up the triangles of `chunk` into the band `lists`; counts them. `step` divides by the
-    /// sample step, `band_of` by the sample rows of a band.
+    /// Sets up the triangles of `chunk` that can cover a sample and hands each to `sink` with its
+    /// first and last sample rows; counts the triangles. `step` divides by the sample step.
+    #[inline(always)]
     fn run(
         &self,
         step: impl FloorDiv,
-        band_of: impl FloorDiv,
         snapped: &[[i32; 2]],
         chunk: &[[u32; 3]],
-        lists: &mut [Vec<Setup>],
+        mut sink: impl FnMut(&Setup, i64, i64),
     ) -> TriangleSummary {
         let h = self.h;
         let mut summary = TriangleSummary::default();
@@ -257,10 +275,7 @@ impl SetupPass<'_> {
                 // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
                 bias |= ((dy < 0 || (dy == 0 && dx > 0)) as u8) << k;
             }
-            let setup = Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] };
-            for list in &mut lists[band_of.of(r0) as usize..=band_of.of(r1) as usize] {
-                list.push(setup);
-            }
+            sink(&Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] }, r0, r1);
         }
         summary
     }
@@ -291,26 +306,89 @@ pub fn coverage(
 ) -> TriangleSummary {
     let f = params.supersample as i64;
     let h = params.half_step as i64;
-    let wpp = params.words_per_pixel as usize;
-    let row_words = params.width as usize * wpp;
-    let band_rows = band_height(params.height, triangles.len());
-    let bands = params.height.div_ceil(band_rows) as usize;
     let pass = SetupPass {
         h,
         last: [params.width as i64 * f - 1, params.height as i64 * f - 1],
         limit: params.width.max(params.height) as i64 * params.units as i64,
         skip,
     };
-    let (step, band_of) = (2 * h, band_rows as i64 * f);
+    if masks.len() <= DIRECT_WORDS {
+        draw_direct(params, &pass, snapped, triangles, masks)
+    } else {
+        draw_in_bands(params, &pass, snapped, triangles, masks)
+    }
+}
+
+/// [`coverage`] for a small image: each task draws its triangles at once into a mask of the whole
+/// image, and the masks are OR-ed (the same bits in any order).
+fn draw_direct(
+    params: &RasterParams,
+    pass: &SetupPass<'_>,
+    snapped: &[[i32; 2]],
+    triangles: &[[u32; 3]],
+    masks: &mut [u32],
+) -> TriangleSummary {
+    let f = params.supersample as i64;
+    let wpp = params.words_per_pixel as usize;
+    let row_words = params.width as usize * wpp;
+    let step = 2 * pass.h;
+    {
+        let (drawn, summary) = triangles
+            .par_chunks(TRIANGLES_PER_TASK)
+            .fold(
+                || (vec![0u32; masks.len()], TriangleSummary::default()),
+                |(mut mask, summary), chunk| {
+                    let mut band = Band { params, rows: &mut mask, row_words, wpp, pixel_row0: 0 };
+                    let full = (0, params.height as i64 * f - 1);
+                    let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
+                    let chunk_summary = match Shift::of(step) {
+                        Some(s) => pass.run(s, snapped, chunk, draw),
+                        None => pass.run(Divide(step), snapped, chunk, draw),
+                    };
+                    (mask, summary + chunk_summary)
+                },
+            )
+            .reduce_with(|(mut a, sa), (b, sb)| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
+                (a, sa + sb)
+            })
+            .unwrap_or_else(|| (vec![0; masks.len()], TriangleSummary::default()));
+        masks.copy_from_slice(&drawn);
+        summary
+    }
+}
+
+/// [`coverage`] for a larger image: the set-up triangles go to per-band lists, then each band
+/// (one task) draws its own, its mask rows staying in cache.
+fn draw_in_bands(
+    params: &RasterParams,
+    pass: &SetupPass<'_>,
+    snapped: &[[i32; 2]],
+    triangles: &[[u32; 3]],
+    masks: &mut [u32],
+) -> TriangleSummary {
+    let f = params.supersample as i64;
+    let wpp = params.words_per_pixel as usize;
+    let row_words = params.width as usize * wpp;
+    let step = 2 * pass.h;
+    let band_rows = band_height(params.height, triangles.len());
+    let bands = params.height.div_ceil(band_rows) as usize;
+    let band_of = band_rows as i64 * f;
     let tasks: Vec<(Vec<Vec<Setup>>, TriangleSummary)> = triangles
         .par_chunks(TRIANGLES_PER_TASK)
         .map(|chunk| {
             let mut lists = vec![Vec::new(); bands];
             let summary = match (Shift::of(step), Shift::of(band_of)) {
-                (Some(s), Some(b)) => pass.run(s, b, snapped, chunk, &mut lists),
-                (Some(s), None) => pass.run(s, Divide(band_of), snapped, chunk, &mut lists),
-                (None, Some(b)) => pass.run(Divide(step), b, snapped, chunk, &mut lists),
-                (None, None) => pass.run(Divide(step), Divide(band_of), snapped, chunk, &mut lists),
+                (Some(s), Some(b)) => pass.run(s, snapped, chunk, |setup, r0, r1| push(&mut lists, b, setup, r0, r1)),
+                (Some(s), None) => {
+                    pass.run(s, snapped, chunk, |setup, r0, r1| push(&mut lists, Divide(band_of), setup, r0, r1))
+                }
+                (None, Some(b)) => {
+                    pass.run(Divide(step), snapped, chunk, |setup, r0, r1| push(&mut lists, b, setup, r0, r1))
+                }
+                (None, None) => pass.run(Divide(step), snapped, chunk, |setup, r0, r1| {
+                    push(&mut lists, Divide(band_of), setup, r0, r1)
+                }),
             };
             (lists, summary)
         })
@@ -321,22 +399,22 @@ pub fn coverage(
         let band_sample_rows = (pixel_row0 * f, (pixel_row0 + band_rows as i64).min(params.height as i64) * f - 1);
         let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
         for setup in tasks.iter().flat_map(|t| &t.0[band_index]) {
-            let tri = setup.triangle();
-            let cols = (setup.cols[0] as i64, setup.cols[1] as i64);
-            let rows =
-                (setup.rows[0].max(band_sample_rows.0 as i32) as i64, (setup.rows[1] as i64).min(band_sample_rows.1));
-            if cols.0 == cols.1 && rows.0 == rows.1 {
-                if tri.covers([(2 * cols.0 + 1) * h, (2 * rows.0 + 1) * h]) {
-                    band.set_span(rows.0, cols);
-                }
-            } else if cols.1 - cols.0 < 8 {
-                tri.raster_samples(params, cols, rows, &mut band);
-            } else {
-                tri.raster_rows(params, cols, rows, &mut band);
-            }
+            setup.draw(params, band_sample_rows, &mut band);
         }
     });
     tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
+}
+
+/// Mask words up to which [`coverage`] draws each task's triangles into a mask of the whole image
+/// (64² pixels at F ≤ 5) rather than sorting them into bands first.
+const DIRECT_WORDS: usize = 64 * 64;
+
+/// Appends `setup` to the lists of the bands its sample rows `r0..=r1` overlap.
+#[inline(always)]
+fn push(lists: &mut [Vec<Setup>], band_of: impl FloorDiv, setup: &Setup, r0: i64, r1: i64) {
+    for list in &mut lists[band_of.of(r0) as usize..=band_of.of(r1) as usize] {
+        list.push(*setup);
+    }
 }
 
 /// Pixel rows per band: enough bands to keep both cores busy and the per-band mask block in
@@ -357,6 +435,7 @@ struct Band<'a> {
 
 impl Band<'_> {
     /// Sets samples `span.0..=span.1` of sample row `sy`, a pixel's worth of bits at a time.
+    #[inline]
     fn set_span(&mut self, sy: i64, span: (i64, i64)) {
         let f = self.params.supersample;
         let (sy, first, last) = (sy as u32, span.0 as u32, span.1 as u32);
@@ -364,10 +443,25 @@ impl Band<'_> {
             if f == 4 { (sy >> 2, first >> 2, last >> 2) } else { (sy / f, first / f, last / f) };
         let row = (sy_pixel - self.pixel_row0 as u32) as usize * self.row_words;
         let bit_row = (sy - sy_pixel * f) * f;
+        let (a_first, a_last) = (first - first_pixel * f, last - last_pixel * f);
+        if self.wpp == 1 {
+            // One word per pixel (F ≤ 5): the pixels strictly inside the span get a whole row of
+            // F bits, the two ends their part of it.
+            let row_bits = bit_range(bit_row, bit_row + f - 1);
+            let words = &mut self.rows[row + first_pixel as usize..=row + last_pixel as usize];
+            if let [only] = words {
+                *only |= bit_range(bit_row + a_first, bit_row + a_last);
+            } else if let [head, middle @ .., tail] = words {
+                *head |= bit_range(bit_row + a_first, bit_row + f - 1);
+                middle.iter_mut().for_each(|w| *w |= row_bits);
+                *tail |= bit_range(bit_row, bit_row + a_last);
+            }
+            return;
+        }
         let mut pixel = first_pixel;
-        let mut a0 = first - pixel * f;
+        let mut a0 = a_first;
         while pixel <= last_pixel {
-            let a1 = if pixel == last_pixel { last - pixel * f } else { f - 1 };
+            let a1 = if pixel == last_pixel { a_last } else { f - 1 };
             let (lo, hi) = (bit_row + a0, bit_row + a1);
             let base = row + pixel as usize * self.wpp;
             if hi / 32 == lo / 32 {
@@ -394,7 +488,8 @@ enum Bound {
 /// `(⌊n / m⌋, n mod m)` for `m > 0`, exactly: an f64 estimate corrected with integer arithmetic
 /// (much cheaper than a 64-bit integer division).
 fn floor_div(n: i64, m: i64) -> (i64, i64) {
-    let mut q = (n as f64 / m as f64).floor() as i64;
+    // Truncation (not `floor`, a library call without SSE4.1): the loops correct any estimate.
+    let mut q = (n as f64 / m as f64) as i64;
     let mut r = n - q * m;
     while r < 0 {
         q -= 1;
@@ -476,12 +571,14 @@ impl SnappedTriangle {
         let mut row_e = [0, 1, 2].map(|k| self.edge_function(k, p0) + self.bias[k]);
         let step_x = [0, 1, 2].map(|k| -(self.v[(k + 1) % 3][1] - self.v[k][1]) * 2 * h);
         let step_y = [0, 1, 2].map(|k| (self.v[(k + 1) % 3][0] - self.v[k][0]) * 2 * h);
-        for sy in rows.0..=rows.1 {
+        // Walk pixel by pixel and row by row (no division per sample or row).
+        let (first_pixel, first_a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
+        let (mut pixel_row, mut b) = ((rows.0 / f - band.pixel_row0) as usize, (rows.0 % f) as u32);
+        for _ in rows.0..=rows.1 {
             let mut e = row_e;
-            let row = (sy / f - band.pixel_row0) as usize * band.row_words;
-            let bit_row = (sy % f) as u32 * f as u32;
-            // Walk pixel by pixel (no division per sample).
-            let (mut pixel, mut a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
+            let row = pixel_row * band.row_words;
+            let bit_row = b * f as u32;
+            let (mut pixel, mut a) = (first_pixel, first_a);
             for _ in cols.0..=cols.1 {
                 if e[0] > 0 && e[1] > 0 && e[2] > 0 {
                     let bit = bit_row + a;
@@ -498,6 +595,11 @@ impl SnappedTriangle {
             }
             for k in 0..3 {
                 row_e[k] += step_y[k];
+            }
+            b += 1;
+            if b == f as u32 {
+                b = 0;
+                pixel_row += 1;
             }
         }
     }
@@ -671,6 +773,45 @@ mod tests {
             }
         }
         assert!(skipped_some, "no open case needed its negative triangles: the test has no teeth");
+    }
+
+    /// The two ways of drawing (whole-image masks per task, or bands) give the same masks.
+    #[test]
+    fn direct_and_banded_drawing_agree() {
+        let mut seed = 0x3c6e_f372_fe94_f82bu64;
+        let mut rand = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        for (f, w, h) in [(4, 64, 64), (3, 50, 37), (1, 31, 90), (6, 20, 20)] {
+            let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
+            // Triangles of all sizes (mostly small) around random centres, some off the image.
+            let mut screen = Vec::new();
+            for k in 0..1500 {
+                let c = [rand() * (w as f32 + 8.0) - 4.0, rand() * (h as f32 + 8.0) - 4.0];
+                let size = if k % 10 == 0 { 12.0 } else { 1.5 };
+                for _ in 0..3 {
+                    let p = [c[0] + (rand() - 0.5) * size, c[1] + (rand() - 0.5) * size];
+                    screen.push(ScreenVertex { position: p, valid: 1, pad: 0 });
+                }
+            }
+            let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+            let triangles: Vec<[u32; 3]> = (0..1500).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+            let pass = SetupPass { h: params.half_step as i64, last: [0; 2], limit: 0, skip: None };
+            let pass = SetupPass {
+                last: [w as i64 * f as i64 - 1, h as i64 * f as i64 - 1],
+                limit: w.max(h) as i64 * params.units as i64,
+                ..pass
+            };
+            let words = params.pixel_count() * params.words_per_pixel as usize;
+            let (mut a, mut b) = (vec![0u32; words], vec![0u32; words]);
+            let sa = draw_direct(&params, &pass, &snapped, &triangles, &mut a);
+            let sb = draw_in_bands(&params, &pass, &snapped, &triangles, &mut b);
+            assert_eq!((sa, &a), (sb, &b), "F={f} {w}x{h}");
+            assert!(a.iter().any(|&m| m != 0) && a.contains(&0));
+        }
     }
 
     /// A clipped vertex turns the skip off (the identity needs every triangle).

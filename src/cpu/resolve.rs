@@ -11,14 +11,24 @@ pub fn resolve(params: &RasterParams, masks: &[u32], image: &mut [f32]) {
     let samples = params.supersample * params.supersample;
     let (p0, p1) = (params.outside, params.inside);
     let (lo, hi) = (p0.min(p1), p0.max(p1));
-    image.par_iter_mut().with_min_len(4096).enumerate().for_each(|(p, value)| {
-        let count: u32 = masks[p * wpp..(p + 1) * wpp].iter().map(|w| w.count_ones()).sum();
-        *value = if count == 0 {
+    let value = |count: u32| {
+        if count == 0 {
             p0
         } else if count == samples {
             p1
         } else {
             (p0 + (p1 - p0) * (count as f32 * params.inv_samples)).clamp(lo, hi)
-        };
+        }
+    };
+    image.par_chunks_mut(4096).zip(masks.par_chunks(4096 * wpp)).for_each(|(image, masks)| {
+        if wpp == 1 {
+            for (v, m) in image.iter_mut().zip(masks) {
+                *v = value(m.count_ones());
+            }
+        } else {
+            for (v, m) in image.iter_mut().zip(masks.chunks_exact(wpp)) {
+                *v = value(m.iter().map(|w| w.count_ones()).sum());
+            }
+        }
     });
 }
