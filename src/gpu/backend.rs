@@ -31,7 +31,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::stages::{
-    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
+    part_length, status, FrameLayout, EDGE_GRAD_ITEMS_PER_WORKGROUP, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
     MAX_VIEWS,
 };
 use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
@@ -962,7 +962,8 @@ impl GpuBackend {
             match dispatch {
                 Some(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
                 None => {
-                    ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
+                    let items = check_index(f.candidates as u64 * fp.parts as u64)?;
+                    ctx.dispatch_1d(&mut pass, items, EDGE_GRAD_ITEMS_PER_WORKGROUP)?;
                 }
             }
         }

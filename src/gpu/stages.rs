@@ -44,6 +44,11 @@ pub fn part_length(tile_size: u32) -> u32 {
     (4 * tile_size).clamp(4, 16)
 }
 
+/// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main`, whose 64 lanes
+/// take the items one after another and split each pixel's occluder scan (keep in sync with
+/// `ITEMS` there).
+pub const EDGE_GRAD_ITEMS_PER_WORKGROUP: u32 = 8;
+
 /// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
 /// workgroup).
 const MAX_TILES_PER_VIEW: u64 = 1 << 18;
