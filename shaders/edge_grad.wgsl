@@ -6,18 +6,22 @@
 //         occluder record of every entry of the tile lists and large-triangle lists), `classes`
 //         (edge sides, the candidate list), `d_image` (∂L/∂I of all views, concatenated like the
 //         images), `status` (list lengths).
-// Writes: `partials[k · parts + p]` = (Σ g·∫(1 − s), Σ g·∫ s) over part p of candidate k, as two
+// Writes: `partials[k · parts + p]` = (Σ g·∫(1 − s), Σ g·∫ s) over part p of candidate k
+//         (parts = `status[STATUS_PARTS]`, shared/parts.wgsl), as two
 //         float-float numbers — each item's slot written once, no float atomics;
 //         `status[status_index(view, STATUS_SEGMENTS / STATUS_VISIBLE)]` and
 //         `status[STATUS_MAX_ITERATIONS]` (integer counts, atomic).
-// Dispatch: 1D over candidates · parts work items, ITEMS (8) per workgroup of LANES (64)
+// Dispatch: 1D over candidates · parts work items, ITEMS (2) per workgroup of LANES (64)
 //         invocations; `edge_sum` then adds the parts of each edge in order and applies the
 //         outward normal.
 //
 // Part p of an edge covers the pixels whose coordinate along the edge's major axis lies in
-// [Lp, Lp + L), L = `part_length(tile_size)` (4 to 16): at most ~2L + 1 pixels, so no workgroup
-// runs long (a 1000-pixel edge is 63 parts in parallel), and every pixel of the edge belongs to
-// exactly one part. Small tiles (dense meshes) get short parts: their pixels hold many occluders.
+// [start + Lp, start + Lp + L), L = `part_length(tile_size)` (4 to 16), from the edge's own first
+// pixel line `start` (shared/parts.wgsl): at most ~2L + 1 pixels, so no workgroup runs long (a
+// 1000-pixel edge is 63 parts in parallel), and every pixel of the edge belongs to exactly one
+// part. The frame has as many parts per candidate as its longest candidate needs (`edges` counts
+// them): one or two for a dense mesh. Small tiles (dense meshes) get short parts: their pixels
+// hold many occluders.
 //
 // A workgroup takes its items that cross a pixel one after another, all 64 lanes together: they
 // walk the item's pixels in step and split each pixel's occluder scan between them, entry k to
@@ -32,7 +36,7 @@
 // union is swept in increasing order without sorting (`visible_weights`), so the gaps are summed
 // in the same order whatever the order of the tile lists or of the lanes' appends:
 // deterministic. A pixel's intervals are gathered in workgroup memory (64) and recomputed from
-// the lists when there are more; every lane sweeps them (same data, same result).
+// the lists when there are more; lane 0 sweeps them and writes the item's results.
 //
 // Precision: the CPU computes in f64. Here every clip parameter, occlusion bound and gap length
 // is computed in float-float arithmetic (shared/ff.wgsl, ~44 bits) from differences of the f32
@@ -46,6 +50,7 @@
 //!include shared/frame.wgsl
 //!include shared/ff.wgsl
 //!include shared/dispatch.wgsl
+//!include shared/parts.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
 // Occluder records beside the bin list entries (shared/tiles.wgsl, `occluder_record`).
@@ -59,7 +64,7 @@
 // The indirect dispatch of `main` in a fused step (written by `args`).
 @group(0) @binding(9) var<storage, read_write> dispatch_args: array<u32, 3>;
 
-// Reads:  `frame` (parts, partial_capacity, max_workgroups), `status` (the candidate count).
+// Reads:  `frame` (partial_capacity, max_workgroups), `status` (the candidate and part counts).
 // Writes: `dispatch_args`: the workgroup grid of `main` for candidates × parts work items (ITEMS
 //         per workgroup, tiled like `workgroup_grid` in src/gpu/mod.rs), or an empty grid and
 //         `status[STATUS_PARTIALS_SHORT]` = 1 when they exceed `partial_capacity` (the host then
@@ -68,7 +73,7 @@
 //         between `edges` and `main`.
 @compute @workgroup_size(1)
 fn args() {
-    let parts = max(frame.params.parts, 1u);
+    let parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
     let candidates = atomicLoad(&status[STATUS_CANDIDATE_TOTAL]);
     dispatch_args = array<u32, 3>(0u, 1u, 1u);
     if candidates > frame.params.partial_capacity / parts {
@@ -87,26 +92,29 @@ fn args() {
 // Work items (candidate × part) per workgroup. The workgroup's first ITEMS lanes find which of its
 // items cross a pixel; then all LANES lanes take those items one after another, together: they
 // walk the item's pixels in step and scan each pixel's occluder lists LANES entries at a time.
-const ITEMS: u32 = 8u;
+// (2: with one or two parts per candidate, a dense mesh's items fit about one wave of workgroups
+// on a large GPU; not yet tuned on hardware.)
+const ITEMS: u32 = 2u;
 const LANES: u32 = 64u;
 // Intervals of one pixel kept in workgroup memory; past that they are recomputed from the lists.
 const SHARED: u32 = 64u;
 const NO_ITEM: u32 = 0xffffffffu;
 
-// The workgroup's items that cross a pixel (NO_ITEM for the others), and the length of each one's
+// The workgroup's items that cross a pixel (NO_ITEM for the others), each with the length of its
 // view's large-triangle list.
-var<workgroup> wg_items: array<u32, ITEMS>;
-var<workgroup> wg_large: array<u32, ITEMS>;
+var<workgroup> wg_items: array<vec2<u32>, ITEMS>;
+// `status[STATUS_PARTS]`, for `workgroupUniformLoad`.
+var<workgroup> wg_parts: u32;
 // An interval [lo, hi] of float-float parameters: (lo.hi, lo.lo, hi.hi, hi.lo); empty when
 // hi ≤ lo. A pixel's non-empty intervals; alternate pixels use alternate halves, so that the
 // next pixel's scan never overwrites what a lane may still be sweeping.
 var<workgroup> wg_intervals: array<array<vec4<f32>, SHARED>, 2>;
-// Running counts over the workgroup's pixels: intervals found, and intervals that cover the whole
-// segment in their pixel (which is then hidden).
-var<workgroup> wg_found: atomic<u32>;
-var<workgroup> wg_hiding: atomic<u32>;
-// The two counts as lane 0 read them after a pixel's scan, for `workgroupUniformLoad`.
-var<workgroup> wg_counts: vec2<u32>;
+// Running counts over the workgroup's pixels, one per half: intervals found, and intervals that
+// cover the whole segment in their pixel (which is then hidden). A pixel's scan adds to its
+// half's counts, and after the barrier that ends the scan every lane reads them: the next pixel
+// adds to the other half's, so they hold still until every lane has passed the next barrier.
+var<workgroup> wg_found: array<atomic<u32>, 2>;
+var<workgroup> wg_hiding: array<atomic<u32>, 2>;
 // Loop iterations of this invocation (see `stages::LLVMPIPE_LOOP_LIMIT`). llvmpipe runs 8
 // invocations as one SIMD batch whose loops run as long as the longest lane's, and the lanes'
 // loops may interleave, so 8 × an invocation's count bounds its batch: past an eighth of the
@@ -244,13 +252,13 @@ fn interval(k: u32, half: u32, in_workgroup: bool, edge: Edge, lists: Lists, c: 
 }
 
 // This lane's share of a pixel's occluder scan: list entries `lane`, `lane + LANES`, …. Appends
-// every non-empty interval over [c.lo, c.hi] to `wg_intervals[half]` (slot: `wg_found` − `found`,
-// kept while below SHARED) and counts in `wg_hiding` one that covers all of [c.lo, c.hi]; stops
-// once any lane has found such a one (`wg_hiding` ≠ `hiding`).
+// every non-empty interval over [c.lo, c.hi] to `wg_intervals[half]` (slot: `wg_found[half]` −
+// `found`, kept while below SHARED) and counts in `wg_hiding[half]` one that covers all of
+// [c.lo, c.hi]; stops once any lane has found such a one (`wg_hiding[half]` ≠ `hiding`).
 fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: u32, hiding: u32, half: u32, lane: u32) {
     let total = lists.tile_count + lists.large_count;
     for (var k = lane; k < total && tick(); k += LANES) {
-        if atomicLoad(&wg_hiding) != hiding {
+        if atomicLoad(&wg_hiding[half]) != hiding {
             break;
         }
         let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
@@ -258,10 +266,10 @@ fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: 
             continue;
         }
         if ff_le(iv.xy, c.xy) && ff_le(c.zw, iv.zw) {
-            atomicAdd(&wg_hiding, 1u);
+            atomicAdd(&wg_hiding[half], 1u);
             break;
         }
-        let slot = atomicAdd(&wg_found, 1u) - found;
+        let slot = atomicAdd(&wg_found[half], 1u) - found;
         if slot < SHARED {
             wg_intervals[half][slot] = iv;
         }
@@ -273,7 +281,7 @@ fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: 
 // the covered prefix to the farthest end among the intervals starting inside it, or emits the gap
 // up to the nearest start beyond it. Gaps come out in increasing order with the endpoints the
 // CPU's sorted merge finds, whatever the order of the intervals (deterministic: the lanes append
-// them in any order).
+// them in any order). Run by lane 0 alone.
 fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32, half: u32, in_workgroup: bool) -> vec2<f32> {
     var weights = vec2<f32>(0.0);
     var cursor = c.xy;
@@ -308,15 +316,10 @@ fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32
     return weights;
 }
 
-// Pixels per part along an edge's major axis for a view with tiles of `tile_size` pixels
-// (`stages::part_length`).
-fn part_length(tile_size: u32) -> u32 {
-    return clamp(4u * tile_size, 4u, 16u);
-}
-
-// A work item: candidate edge `edge` (dx, dy its exact difference vb − va) clipped to its view
-// and to its part's slab [slab_lo, slab_hi] of pixels along the major axis: parameters `s`.
-// `crosses`: false when the clipped segment is empty (or the edge is degenerate or no candidate).
+// Work item `item` of a frame with `parts` parts per candidate: candidate edge `edge` (dx, dy its
+// exact difference vb − va) clipped to its view and to its part's slab [slab_lo, slab_hi] of
+// pixel lines along the major axis (shared/parts.wgsl): parameters `s`. `crosses`: false when the
+// clipped segment is empty (or the edge is degenerate or no candidate).
 struct Item {
     edge: Edge,
     dx: vec2<f32>,
@@ -328,10 +331,9 @@ struct Item {
     crosses: bool,
 }
 
-fn item_setup(item: u32) -> Item {
+fn item_setup(item: u32, parts: u32) -> Item {
     var it: Item;
     it.crosses = false;
-    let parts = frame.params.parts;
     let part = item % parts;
     let i = u32(classes[candidate_list_offset() + item / parts]);
     let n_edges = frame.params.edge_count;
@@ -355,9 +357,10 @@ fn item_setup(item: u32) -> Item {
         return it;
     }
     // This part's slab along the major axis.
-    it.x_major = abs(it.dx.x) >= abs(it.dy.x);
+    let span = part_span(va, vb, r);
+    it.x_major = span.x_major;
     let part_pixels = part_length(r.tile_size);
-    it.slab_lo = i32(part * part_pixels);
+    it.slab_lo = span.start + i32(part * part_pixels);
     it.slab_hi = it.slab_lo + i32(part_pixels) - 1;
     if it.x_major {
         it.crosses = clip_parameter(va.x, it.dx, f32(it.slab_lo), f32(it.slab_hi + 1), &s);
@@ -375,12 +378,16 @@ fn main(
     @builtin(local_invocation_index) lane: u32,
 ) {
     // Which of the workgroup's items cross a pixel; the others get zero partials here.
+    if lane == 0u {
+        wg_parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
+    }
     if lane < ITEMS {
         let item = linear_workgroup_index(workgroup_id, num_workgroups) * ITEMS + lane;
+        let parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
         var listed = NO_ITEM;
         var large = 0u;
-        if item < atomicLoad(&status[STATUS_CANDIDATE_TOTAL]) * frame.params.parts {
-            let it = item_setup(item);
+        if item < atomicLoad(&status[STATUS_CANDIDATE_TOTAL]) * parts {
+            let it = item_setup(item, parts);
             if it.crosses {
                 listed = item;
                 large = atomicLoad(&status[status_index(it.edge.view, STATUS_LARGE)]);
@@ -388,25 +395,26 @@ fn main(
                 partials[item] = vec4<f32>(0.0);
             }
         }
-        wg_items[lane] = listed;
-        wg_large[lane] = large;
+        wg_items[lane] = vec2<u32>(listed, large);
     }
-    // The counts `wg_found` / `wg_hiding` stood at after the last pixel (uniform), and which half
+    let items = workgroupUniformLoad(&wg_items);
+    let parts = workgroupUniformLoad(&wg_parts);
+    // Per half: the counts `wg_found` / `wg_hiding` stood at after its last pixel; and which half
     // of `wg_intervals` the next pixel uses.
-    var found = 0u;
-    var hiding = 0u;
+    var found = vec2<u32>(0u);
+    var hiding = vec2<u32>(0u);
     var half = 0u;
     // Every loop below that holds a barrier runs the same trip count in every lane: its bounds
     // come from `workgroupUniformLoad` or from the item's uniform data. They are not cut short on
     // llvmpipe (a lane leaving early would skip barriers); they are short (≤ ITEMS items, ≤ ~2L + 1
     // pixels each) and only counted.
     for (var j = 0u; j < ITEMS; j++) {
-        let item = workgroupUniformLoad(&wg_items[j]);
+        let item = items[j].x;
         if item == NO_ITEM {
             continue;
         }
-        let large_count = workgroupUniformLoad(&wg_large[j]);
-        let it = item_setup(item);
+        let large_count = items[j].y;
+        let it = item_setup(item, parts);
         let edge = it.edge;
         let va = edge.va;
         let vb = edge.vb;
@@ -468,18 +476,17 @@ fn main(
                 let p0 = va + c.x * d;
                 let p1 = va + c.z * d;
                 let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
-                scan_occluders(edge, lists, c, bb, found, hiding, half, lane);
+                scan_occluders(edge, lists, c, bb, found[half], hiding[half], half, lane);
                 workgroupBarrier();
-                if lane == 0u {
-                    wg_counts = vec2<u32>(atomicLoad(&wg_found), atomicLoad(&wg_hiding));
-                }
-                let counts = workgroupUniformLoad(&wg_counts);
-                let n = counts.x - found;
-                let hidden = counts.y != hiding;
-                found = counts.x;
-                hiding = counts.y;
+                let found_now = atomicLoad(&wg_found[half]);
+                let hiding_now = atomicLoad(&wg_hiding[half]);
+                let n = found_now - found[half];
+                let hidden = hiding_now != hiding[half];
+                found[half] = found_now;
+                hiding[half] = hiding_now;
+                // Only lane 0 writes the item's results: it alone sweeps.
                 var k = vec2<f32>(0.0);
-                if !hidden {
+                if !hidden && lane == 0u {
                     if n <= SHARED {
                         k = visible_weights(edge, lists, c, bb, n, half, true);
                     } else {

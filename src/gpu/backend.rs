@@ -11,8 +11,9 @@
 //!   `edge_sum`, `gather`, and the copy of the per-view vertex gradients). Only the images, the
 //!   vertex gradients and a few counters are read back.
 //! - **Backward work items.** The forward reads back how many candidate edges there are; the
-//!   backward runs `edge_grad` on candidates × parts (each part one 16-pixel slab of the edge's
-//!   major axis) and `edge_sum` adds the parts of each edge in order.
+//!   backward runs `edge_grad` on candidates × parts (each part a slab of 4 to 16 pixel lines of
+//!   the edge's major axis, as many per candidate as the frame's longest candidate needs, a count
+//!   the `edges` stage finds) and `edge_sum` adds the parts of each edge in order.
 //! - **Bin capacity.** The number of (triangle, tile) entries is only known on the GPU. The
 //!   forward writes at most the current capacity and reports the number needed with the image;
 //!   when it did not fit, the buffer grows and the forward runs again (rarely: the capacity is
@@ -31,8 +32,8 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::stages::{
-    part_length, status, FrameLayout, EDGE_GRAD_ITEMS_PER_WORKGROUP, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
-    MAX_VIEWS,
+    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP,
+    LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
 };
 use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
 use crate::camera::ViewParams;
@@ -254,6 +255,8 @@ struct FrameBuffers {
     /// Candidate edges of all views in the last forward (the backward's work items are
     /// candidates × parts).
     candidates: u32,
+    /// Parts per candidate in the last forward ([`status::PARTS`]).
+    parts: u32,
     /// Buffers only the bind groups use (masks), kept with the frame.
     _internal: Vec<wgpu::Buffer>,
     /// The occluder record of every bin list entry (`edge_grad` binds it per partials buffer).
@@ -362,7 +365,7 @@ impl GpuBackend {
         let ctx = &self.ctx;
         let topo = self.topology.as_ref().expect("topology uploaded");
         let f = self.frame.as_mut().expect("a forward ran");
-        let needed = (f.candidates as u64 * f.uniform.params.parts as u64).max(1);
+        let needed = (f.candidates as u64 * f.parts.max(1) as u64).max(1);
         check_index(needed)?;
         if f.partials.as_ref().is_some_and(|p| p.capacity >= needed) {
             return Ok(());
@@ -392,7 +395,7 @@ impl GpuBackend {
             "edge_sum",
             &p.edge_sum,
             0,
-            &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots)],
+            &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots), (6, &f.status)],
         )?;
         f.uniform.params.partial_capacity = capacity.min(u32::MAX as u64) as u32;
         f.partials = Some(Partials { _buffer: buffer, capacity, edge_grad, edge_sum });
@@ -507,7 +510,9 @@ impl GpuBackend {
                 continue;
             }
             self.check_iterations(counters[status::MAX_ITERATIONS])?;
-            self.frame.as_mut().expect("built above").candidates = counters[status::CANDIDATE_TOTAL];
+            let frame = self.frame.as_mut().expect("built above");
+            frame.candidates = counters[status::CANDIDATE_TOTAL];
+            frame.parts = counters[status::PARTS];
             self.last_generation += 1;
             self.generation = self.last_generation;
             let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
@@ -563,7 +568,7 @@ impl GpuBackend {
         let parts = layout
             .views
             .iter()
-            .map(|v| v.raster.width.max(v.raster.height).div_ceil(part_length(v.raster.tile_size)))
+            .map(|v| v.raster.width.max(v.raster.height) / part_length(v.raster.tile_size) + 1)
             .max()
             .unwrap_or(1);
         if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
@@ -681,6 +686,7 @@ impl GpuBackend {
                 0,
                 &[
                     (0, u),
+                    (1, &screen),
                     (2, &topo.triangles),
                     (3, &topo.edges),
                     (4, &topo.edge_faces),
@@ -731,6 +737,7 @@ impl GpuBackend {
             partials: None,
             loss: None,
             candidates: 0,
+            parts: 0,
             _internal: vec![masks, snapped],
             dispatch,
             occluders,
@@ -962,7 +969,7 @@ impl GpuBackend {
             match dispatch {
                 Some(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
                 None => {
-                    let items = check_index(f.candidates as u64 * fp.parts as u64)?;
+                    let items = check_index(f.candidates as u64 * f.parts.max(1) as u64)?;
                     ctx.dispatch_1d(&mut pass, items, EDGE_GRAD_ITEMS_PER_WORKGROUP)?;
                 }
             }
