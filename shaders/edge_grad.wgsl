@@ -106,15 +106,16 @@ var<workgroup> wg_items: array<vec2<u32>, ITEMS>;
 // `status[STATUS_PARTS]`, for `workgroupUniformLoad`.
 var<workgroup> wg_parts: u32;
 // An interval [lo, hi] of float-float parameters: (lo.hi, lo.lo, hi.hi, hi.lo); empty when
-// hi ≤ lo. A pixel's non-empty intervals; alternate pixels use alternate halves, so that the
-// next pixel's scan never overwrites what a lane may still be sweeping.
-var<workgroup> wg_intervals: array<array<vec4<f32>, SHARED>, 2>;
-// Running counts over the workgroup's pixels, one per half: intervals found, and intervals that
-// cover the whole segment in their pixel (which is then hidden). A pixel's scan adds to its
-// half's counts, and after the barrier that ends the scan every lane reads them: the next pixel
-// adds to the other half's, so they hold still until every lane has passed the next barrier.
-var<workgroup> wg_found: array<atomic<u32>, 2>;
-var<workgroup> wg_hiding: array<atomic<u32>, 2>;
+// hi ≤ lo. A pixel's non-empty intervals as the lanes found them, then sorted by start.
+var<workgroup> wg_intervals: array<vec4<f32>, SHARED>;
+var<workgroup> wg_sorted: array<vec4<f32>, SHARED>;
+// Running counts over the workgroup's pixels: intervals found, and intervals that cover the whole
+// segment in their pixel (which is then hidden). A pixel's scan adds to them; every lane reads
+// them between the two barriers that follow (the next pixel's scan starts after the second), and
+// lane 0 merges `wg_sorted` before it reaches the next pixel's first barrier, after which the
+// lanes sort into it again.
+var<workgroup> wg_found: atomic<u32>;
+var<workgroup> wg_hiding: atomic<u32>;
 // Loop iterations of this invocation (see `stages::LLVMPIPE_LOOP_LIMIT`). llvmpipe runs 8
 // invocations as one SIMD batch whose loops run as long as the longest lane's, and the lanes'
 // loops may interleave, so 8 × an invocation's count bounds its batch: past an eighth of the
@@ -242,23 +243,14 @@ fn list_entry(lists: Lists, k: u32) -> u32 {
     return lists.large_start + k - lists.tile_count;
 }
 
-// Interval k of a pixel over [c.lo, c.hi]: from half `half` of `wg_intervals`, or (when the
-// pixel had more than SHARED) recomputed from list entry k.
-fn interval(k: u32, half: u32, in_workgroup: bool, edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
-    if in_workgroup {
-        return wg_intervals[half][k];
-    }
-    return occluded_interval(edge, list_entry(lists, k), c, bb);
-}
-
 // This lane's share of a pixel's occluder scan: list entries `lane`, `lane + LANES`, …. Appends
-// every non-empty interval over [c.lo, c.hi] to `wg_intervals[half]` (slot: `wg_found[half]` −
-// `found`, kept while below SHARED) and counts in `wg_hiding[half]` one that covers all of
-// [c.lo, c.hi]; stops once any lane has found such a one (`wg_hiding[half]` ≠ `hiding`).
-fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: u32, hiding: u32, half: u32, lane: u32) {
+// every non-empty interval over [c.lo, c.hi] to `wg_intervals` (slot: `wg_found` − `found`, kept
+// while below SHARED) and counts in `wg_hiding` one that covers all of [c.lo, c.hi]; stops once
+// any lane has found such a one (`wg_hiding` ≠ `hiding`).
+fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: u32, hiding: u32, lane: u32) {
     let total = lists.tile_count + lists.large_count;
     for (var k = lane; k < total && tick(); k += LANES) {
-        if atomicLoad(&wg_hiding[half]) != hiding {
+        if atomicLoad(&wg_hiding) != hiding {
             break;
         }
         let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
@@ -266,23 +258,57 @@ fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: 
             continue;
         }
         if ff_le(iv.xy, c.xy) && ff_le(c.zw, iv.zw) {
-            atomicAdd(&wg_hiding[half], 1u);
+            atomicAdd(&wg_hiding, 1u);
             break;
         }
-        let slot = atomicAdd(&wg_found[half], 1u) - found;
+        let slot = atomicAdd(&wg_found, 1u) - found;
         if slot < SHARED {
-            wg_intervals[half][slot] = iv;
+            wg_intervals[slot] = iv;
         }
     }
 }
 
+// This lane's share of sorting a pixel's `n` ≤ SHARED intervals by start: interval k goes to
+// `wg_sorted[rank]`, rank = how many start before it (equal starts: by slot). Any order of equal
+// starts merges to the same gaps.
+fn sort_intervals(n: u32, lane: u32) {
+    for (var k = lane; k < n && tick(); k += LANES) {
+        let iv = wg_intervals[k];
+        var rank = 0u;
+        for (var j = 0u; j < n && tick(); j++) {
+            let other = wg_intervals[j].xy;
+            if ff_lt(other, iv.xy) || (j < k && !ff_lt(iv.xy, other)) {
+                rank++;
+            }
+        }
+        wg_sorted[rank] = iv;
+    }
+}
+
 // Visible weights [∫(1 − s), ∫ s] over the parts of [c.lo, c.hi] that none of the `n` intervals
-// (`interval`) covers. The union is swept from c.lo: each pass over the intervals either extends
-// the covered prefix to the farthest end among the intervals starting inside it, or emits the gap
-// up to the nearest start beyond it. Gaps come out in increasing order with the endpoints the
-// CPU's sorted merge finds, whatever the order of the intervals (deterministic: the lanes append
-// them in any order). Run by lane 0 alone.
-fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32, half: u32, in_workgroup: bool) -> vec2<f32> {
+// of `wg_sorted` covers: the CPU's sorted merge, gaps in increasing order (deterministic: the same
+// gaps whatever order the lanes appended the intervals in).
+fn merge_sorted(c: vec4<f32>, n: u32) -> vec2<f32> {
+    var weights = vec2<f32>(0.0);
+    var cursor = c.xy;
+    for (var k = 0u; k < n && tick(); k++) {
+        let iv = wg_sorted[k];
+        if ff_lt(cursor, iv.xy) {
+            weights += segment_weights(cursor, iv.xy);
+        }
+        cursor = ff_max(cursor, iv.zw);
+    }
+    if ff_lt(cursor, c.zw) {
+        weights += segment_weights(cursor, c.zw);
+    }
+    return weights;
+}
+
+// `merge_sorted` for a pixel with more than SHARED intervals, recomputed from the lists (entries
+// k < n): the union is swept from c.lo; each pass over the entries either extends the covered
+// prefix to the farthest end among the intervals starting inside it, or emits the gap up to the
+// nearest start beyond it: the same gaps, in the same order, in O(n²) without storage.
+fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32) -> vec2<f32> {
     var weights = vec2<f32>(0.0);
     var cursor = c.xy;
     // Each pass extends the cursor or moves it past a gap to an interval's start: at most 2n + 1.
@@ -290,7 +316,7 @@ fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32
         var reach = cursor;
         var next = c.zw;
         for (var k = 0u; k < n && tick(); k++) {
-            let iv = interval(k, half, in_workgroup, edge, lists, c, bb);
+            let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
             if iv_empty(iv) {
                 continue;
             }
@@ -399,11 +425,9 @@ fn main(
     }
     let items = workgroupUniformLoad(&wg_items);
     let parts = workgroupUniformLoad(&wg_parts);
-    // Per half: the counts `wg_found` / `wg_hiding` stood at after its last pixel; and which half
-    // of `wg_intervals` the next pixel uses.
-    var found = vec2<u32>(0u);
-    var hiding = vec2<u32>(0u);
-    var half = 0u;
+    // The counts `wg_found` / `wg_hiding` stood at after the last pixel.
+    var found = 0u;
+    var hiding = 0u;
     // Every loop below that holds a barrier runs the same trip count in every lane: its bounds
     // come from `workgroupUniformLoad` or from the item's uniform data. They are not cut short on
     // llvmpipe (a lane leaving early would skip barriers); they are short (≤ ITEMS items, ≤ ~2L + 1
@@ -476,25 +500,29 @@ fn main(
                 let p0 = va + c.x * d;
                 let p1 = va + c.z * d;
                 let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
-                scan_occluders(edge, lists, c, bb, found[half], hiding[half], half, lane);
+                // Scan (all lanes) | barrier | sort (lanes k < n) | barrier | merge (lane 0, which
+                // alone writes the item's results).
+                scan_occluders(edge, lists, c, bb, found, hiding, lane);
                 workgroupBarrier();
-                let found_now = atomicLoad(&wg_found[half]);
-                let hiding_now = atomicLoad(&wg_hiding[half]);
-                let n = found_now - found[half];
-                let hidden = hiding_now != hiding[half];
-                found[half] = found_now;
-                hiding[half] = hiding_now;
-                // Only lane 0 writes the item's results: it alone sweeps.
+                let found_now = atomicLoad(&wg_found);
+                let hiding_now = atomicLoad(&wg_hiding);
+                let n = found_now - found;
+                let hidden = hiding_now != hiding;
+                found = found_now;
+                hiding = hiding_now;
+                if !hidden && n <= SHARED {
+                    sort_intervals(n, lane);
+                }
+                workgroupBarrier();
                 var k = vec2<f32>(0.0);
                 if !hidden && lane == 0u {
                     if n <= SHARED {
-                        k = visible_weights(edge, lists, c, bb, n, half, true);
+                        k = merge_sorted(c, n);
                     } else {
                         // More intervals than workgroup memory holds: recomputed from the lists.
-                        k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count, half, false);
+                        k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count);
                     }
                 }
-                half ^= 1u;
                 if k.x != 0.0 || k.y != 0.0 {
                     visible++;
                 }
