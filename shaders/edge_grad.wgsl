@@ -6,17 +6,27 @@
 //         occluder record of every entry of the tile lists and large-triangle lists), `classes`
 //         (edge sides, the candidate list), `d_image` (∂L/∂I of all views, concatenated like the
 //         images), `status` (list lengths).
-// Writes: `partials[k · parts + p]` = (Σ g·∫(1 − s), Σ g·∫ s) over part p of candidate k, as two
-//         float-float numbers — each invocation only its own slot, no float atomics;
+// Writes: `partials[k · parts + p]` = (Σ g·∫(1 − s), Σ g·∫ s) over part p of candidate k
+//         (parts = `status[STATUS_PARTS]`, shared/parts.wgsl), as two
+//         float-float numbers — each item's slot written once, no float atomics;
 //         `status[status_index(view, STATUS_SEGMENTS / STATUS_VISIBLE)]` and
 //         `status[STATUS_MAX_ITERATIONS]` (integer counts, atomic).
-// Dispatch: 1D over candidates · parts invocations (64 per workgroup); `edge_sum` then adds the
-//         parts of each edge in order and applies the outward normal.
+// Dispatch: 1D over candidates · parts work items, ITEMS (2) per workgroup of LANES (64)
+//         invocations; `edge_sum` then adds the parts of each edge in order and applies the
+//         outward normal.
 //
 // Part p of an edge covers the pixels whose coordinate along the edge's major axis lies in
-// [Lp, Lp + L), L = `part_length(tile_size)` (4 to 16): at most ~2L + 1 pixels, so no invocation
-// runs long (a 1000-pixel edge is 63 parts in parallel), and every pixel of the edge belongs to
-// exactly one part. Small tiles (dense meshes) get short parts: their pixels hold many occluders.
+// [start + Lp, start + Lp + L), L = `part_length(tile_size)` (4 to 16), from the edge's own first
+// pixel line `start` (shared/parts.wgsl): at most ~2L + 1 pixels, so no workgroup runs long (a
+// 1000-pixel edge is 63 parts in parallel), and every pixel of the edge belongs to exactly one
+// part. The frame has as many parts per candidate as its longest candidate needs (`edges` counts
+// them): one or two for a dense mesh. Small tiles (dense meshes) get short parts: their pixels
+// hold many occluders.
+//
+// A workgroup takes its items that cross a pixel one after another, all 64 lanes together: they
+// walk the item's pixels in step and split each pixel's occluder scan between them, entry k to
+// lane k mod 64 (a pixel of a dense mesh lists dozens to thousands of triangles: scanned by one
+// invocation, that list was the critical path of the whole stage on a GPU).
 //
 // Per pixel: the scanline DDA of the CPU (rows the segment spans, columns within each row),
 // Liang–Barsky clipping to the pixel, ½ weight for a segment lying on a pixel border, then the
@@ -24,8 +34,9 @@
 // the parameter interval where the point just outside the edge (+ε·outward) is inside it, and the
 // closed form is applied to the complement of their union. The CPU sorts the intervals; here the
 // union is swept in increasing order without sorting (`visible_weights`), so the gaps are summed
-// in the same order whatever the order of the tile lists: deterministic. Intervals are cached in
-// registers (64) and recomputed from the lists when there are more.
+// in the same order whatever the order of the tile lists or of the lanes' appends:
+// deterministic. A pixel's intervals are gathered in workgroup memory (64) and recomputed from
+// the lists when there are more; lane 0 sweeps them and writes the item's results.
 //
 // Precision: the CPU computes in f64. Here every clip parameter, occlusion bound and gap length
 // is computed in float-float arithmetic (shared/ff.wgsl, ~44 bits) from differences of the f32
@@ -39,6 +50,7 @@
 //!include shared/frame.wgsl
 //!include shared/ff.wgsl
 //!include shared/dispatch.wgsl
+//!include shared/parts.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
 // Occluder records beside the bin list entries (shared/tiles.wgsl, `occluder_record`).
@@ -52,23 +64,23 @@
 // The indirect dispatch of `main` in a fused step (written by `args`).
 @group(0) @binding(9) var<storage, read_write> dispatch_args: array<u32, 3>;
 
-// Reads:  `frame` (parts, partial_capacity, max_workgroups), `status` (the candidate count).
-// Writes: `dispatch_args`: the workgroup grid of `main` for candidates × parts invocations (64 per
-//         workgroup, tiled like `workgroup_grid` in src/gpu/mod.rs), or an empty grid and
+// Reads:  `frame` (partial_capacity, max_workgroups), `status` (the candidate and part counts).
+// Writes: `dispatch_args`: the workgroup grid of `main` for candidates × parts work items (ITEMS
+//         per workgroup, tiled like `workgroup_grid` in src/gpu/mod.rs), or an empty grid and
 //         `status[STATUS_PARTIALS_SHORT]` = 1 when they exceed `partial_capacity` (the host then
 //         grows the buffer and runs the backward on its own).
 // Dispatch: one invocation, in a fused step (forward, loss and backward in one submission),
 //         between `edges` and `main`.
 @compute @workgroup_size(1)
 fn args() {
-    let parts = max(frame.params.parts, 1u);
+    let parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
     let candidates = atomicLoad(&status[STATUS_CANDIDATE_TOTAL]);
     dispatch_args = array<u32, 3>(0u, 1u, 1u);
     if candidates > frame.params.partial_capacity / parts {
         atomicStore(&status[STATUS_PARTIALS_SHORT], 1u);
         return;
     }
-    let groups = (candidates * parts + 63u) / 64u;
+    let groups = (candidates * parts + ITEMS - 1u) / ITEMS;
     if groups == 0u {
         return;
     }
@@ -77,10 +89,33 @@ fn args() {
     dispatch_args = array<u32, 3>((groups + y - 1u) / y, y, 1u);
 }
 
+// Work items (candidate × part) per workgroup. The workgroup's first ITEMS lanes find which of its
+// items cross a pixel; then all LANES lanes take those items one after another, together: they
+// walk the item's pixels in step and scan each pixel's occluder lists LANES entries at a time.
+// (2: with one or two parts per candidate, a dense mesh's items fit about one wave of workgroups
+// on a large GPU; not yet tuned on hardware.)
+const ITEMS: u32 = 2u;
+const LANES: u32 = 64u;
+// Intervals of one pixel kept in workgroup memory; past that they are recomputed from the lists.
+const SHARED: u32 = 64u;
+const NO_ITEM: u32 = 0xffffffffu;
+
+// The workgroup's items that cross a pixel (NO_ITEM for the others), each with the length of its
+// view's large-triangle list.
+var<workgroup> wg_items: array<vec2<u32>, ITEMS>;
+// `status[STATUS_PARTS]`, for `workgroupUniformLoad`.
+var<workgroup> wg_parts: u32;
 // An interval [lo, hi] of float-float parameters: (lo.hi, lo.lo, hi.hi, hi.lo); empty when
-// hi ≤ lo.
-const CACHE: u32 = 64u;
-var<private> cache: array<vec4<f32>, CACHE>;
+// hi ≤ lo. A pixel's non-empty intervals as the lanes found them, then sorted by start.
+var<workgroup> wg_intervals: array<vec4<f32>, SHARED>;
+var<workgroup> wg_sorted: array<vec4<f32>, SHARED>;
+// Running counts over the workgroup's pixels: intervals found, and intervals that cover the whole
+// segment in their pixel (which is then hidden). A pixel's scan adds to them; every lane reads
+// them between the two barriers that follow (the next pixel's scan starts after the second), and
+// lane 0 merges `wg_sorted` before it reaches the next pixel's first barrier, after which the
+// lanes sort into it again.
+var<workgroup> wg_found: atomic<u32>;
+var<workgroup> wg_hiding: atomic<u32>;
 // Loop iterations of this invocation (see `stages::LLVMPIPE_LOOP_LIMIT`). llvmpipe runs 8
 // invocations as one SIMD batch whose loops run as long as the longest lane's, and the lanes'
 // loops may interleave, so 8 × an invocation's count bounds its batch: past an eighth of the
@@ -208,45 +243,72 @@ fn list_entry(lists: Lists, k: u32) -> u32 {
     return lists.large_start + k - lists.tile_count;
 }
 
-// What `fill_cache` returns when one interval covers the whole range.
-const HIDDEN: u32 = 0xffffffffu;
-
-// Fills `cache` with the non-empty intervals, over [c.lo, c.hi], of the triangles in `lists`
-// (only the first CACHE when there are more); returns how many there are, or HIDDEN as soon as one
-// covers all of [c.lo, c.hi].
-fn fill_cache(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> u32 {
+// This lane's share of a pixel's occluder scan: list entries `lane`, `lane + LANES`, …. Appends
+// every non-empty interval over [c.lo, c.hi] to `wg_intervals` (slot: `wg_found` − `found`, kept
+// while below SHARED) and counts in `wg_hiding` one that covers all of [c.lo, c.hi]; stops once
+// any lane has found such a one (`wg_hiding` ≠ `hiding`).
+fn scan_occluders(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, found: u32, hiding: u32, lane: u32) {
     let total = lists.tile_count + lists.large_count;
-    var n = 0u;
-    for (var k = 0u; k < total && tick(); k++) {
+    for (var k = lane; k < total && tick(); k += LANES) {
+        if atomicLoad(&wg_hiding) != hiding {
+            break;
+        }
         let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
-        if !iv_empty(iv) {
-            if ff_le(iv.xy, c.xy) && ff_le(c.zw, iv.zw) {
-                return HIDDEN;
-            }
-            if n < CACHE {
-                cache[n] = iv;
-            }
-            n++;
+        if iv_empty(iv) {
+            continue;
+        }
+        if ff_le(iv.xy, c.xy) && ff_le(c.zw, iv.zw) {
+            atomicAdd(&wg_hiding, 1u);
+            break;
+        }
+        let slot = atomicAdd(&wg_found, 1u) - found;
+        if slot < SHARED {
+            wg_intervals[slot] = iv;
         }
     }
-    return n;
 }
 
-// Interval k over [c.lo, c.hi]: from the cache, or (when the lists overflowed it) recomputed from
-// list entry k.
-fn interval(k: u32, cached: bool, edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
-    if cached {
-        return cache[k];
+// This lane's share of sorting a pixel's `n` ≤ SHARED intervals by start: interval k goes to
+// `wg_sorted[rank]`, rank = how many start before it (equal starts: by slot). Any order of equal
+// starts merges to the same gaps.
+fn sort_intervals(n: u32, lane: u32) {
+    for (var k = lane; k < n && tick(); k += LANES) {
+        let iv = wg_intervals[k];
+        var rank = 0u;
+        for (var j = 0u; j < n && tick(); j++) {
+            let other = wg_intervals[j].xy;
+            if ff_lt(other, iv.xy) || (j < k && !ff_lt(iv.xy, other)) {
+                rank++;
+            }
+        }
+        wg_sorted[rank] = iv;
     }
-    return occluded_interval(edge, list_entry(lists, k), c, bb);
 }
 
 // Visible weights [∫(1 − s), ∫ s] over the parts of [c.lo, c.hi] that none of the `n` intervals
-// (`interval`) covers. The union is swept from c.lo: each pass over the intervals either extends
-// the covered prefix to the farthest end among the intervals starting inside it, or emits the gap
-// up to the nearest start beyond it. Gaps come out in increasing order with the endpoints the
-// CPU's sorted merge finds, whatever the order of the lists (deterministic).
-fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32, cached: bool) -> vec2<f32> {
+// of `wg_sorted` covers: the CPU's sorted merge, gaps in increasing order (deterministic: the same
+// gaps whatever order the lanes appended the intervals in).
+fn merge_sorted(c: vec4<f32>, n: u32) -> vec2<f32> {
+    var weights = vec2<f32>(0.0);
+    var cursor = c.xy;
+    for (var k = 0u; k < n && tick(); k++) {
+        let iv = wg_sorted[k];
+        if ff_lt(cursor, iv.xy) {
+            weights += segment_weights(cursor, iv.xy);
+        }
+        cursor = ff_max(cursor, iv.zw);
+    }
+    if ff_lt(cursor, c.zw) {
+        weights += segment_weights(cursor, c.zw);
+    }
+    return weights;
+}
+
+// `merge_sorted` for a pixel with more than SHARED intervals, recomputed from the lists (entries
+// k < n): the union is swept from c.lo; each pass over the entries either extends the covered
+// prefix to the farthest end among the intervals starting inside it, or emits the gap up to the
+// nearest start beyond it: the same gaps, in the same order, in O(n²) without storage.
+fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32) -> vec2<f32> {
     var weights = vec2<f32>(0.0);
     var cursor = c.xy;
     // Each pass extends the cursor or moves it past a gap to an interval's start: at most 2n + 1.
@@ -254,7 +316,7 @@ fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32
         var reach = cursor;
         var next = c.zw;
         for (var k = 0u; k < n && tick(); k++) {
-            let iv = interval(k, cached, edge, lists, c, bb);
+            let iv = occluded_interval(edge, list_entry(lists, k), c, bb);
             if iv_empty(iv) {
                 continue;
             }
@@ -280,24 +342,24 @@ fn visible_weights(edge: Edge, lists: Lists, c: vec4<f32>, bb: vec4<f32>, n: u32
     return weights;
 }
 
-// Pixels per part along an edge's major axis for a view with tiles of `tile_size` pixels
-// (`stages::part_length`).
-fn part_length(tile_size: u32) -> u32 {
-    return clamp(4u * tile_size, 4u, 16u);
+// Work item `item` of a frame with `parts` parts per candidate: candidate edge `edge` (dx, dy its
+// exact difference vb − va) clipped to its view and to its part's slab [slab_lo, slab_hi] of
+// pixel lines along the major axis (shared/parts.wgsl): parameters `s`. `crosses`: false when the
+// clipped segment is empty (or the edge is degenerate or no candidate).
+struct Item {
+    edge: Edge,
+    dx: vec2<f32>,
+    dy: vec2<f32>,
+    s: vec4<f32>,
+    x_major: bool,
+    slab_lo: i32,
+    slab_hi: i32,
+    crosses: bool,
 }
 
-@compute @workgroup_size(64)
-fn main(
-    @builtin(workgroup_id) workgroup_id: vec3<u32>,
-    @builtin(num_workgroups) num_workgroups: vec3<u32>,
-    @builtin(local_invocation_index) local_index: u32,
-) {
-    let item = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
-    let parts = frame.params.parts;
-    if item >= atomicLoad(&status[STATUS_CANDIDATE_TOTAL]) * parts {
-        return;
-    }
-    partials[item] = vec4<f32>(0.0);
+fn item_setup(item: u32, parts: u32) -> Item {
+    var it: Item;
+    it.crosses = false;
     let part = item % parts;
     let i = u32(classes[candidate_list_offset() + item / parts]);
     let n_edges = frame.params.edge_count;
@@ -307,107 +369,176 @@ fn main(
     let base = view * frame.params.vertex_count;
     let va = screen[base + edges[2u * e]].position;
     let vb = screen[base + edges[2u * e + 1u]].position;
-    let dx = ff_diff(vb.x, va.x);
-    let dy = ff_diff(vb.y, va.y);
-    if inside == 0 || (ff_is_zero(dx) && ff_is_zero(dy)) {
-        return;
+    it.dx = ff_diff(vb.x, va.x);
+    it.dy = ff_diff(vb.y, va.y);
+    if inside == 0 || (ff_is_zero(it.dx) && ff_is_zero(it.dy)) {
+        return it;
     }
-    let side = f32(inside);
-    let edge = Edge(va, vb, side * vec2<f32>(dy.x, -dx.x), view);
-    let vw = frame.views[view];
-    let r = vw.raster;
+    it.edge = Edge(va, vb, f32(inside) * vec2<f32>(it.dy.x, -it.dx.x), view);
+    let r = frame.views[view].raster;
+    // (Clipped in a local: naga 30's SPIR-V writer panics on a pointer to a struct member passed
+    // to a function.)
     var s = vec4<f32>(0.0, 0.0, 1.0, 0.0);
-    if !(clip_parameter(va.x, dx, 0.0, f32(r.width), &s) && clip_parameter(va.y, dy, 0.0, f32(r.height), &s)) {
-        return;
+    if !(clip_parameter(va.x, it.dx, 0.0, f32(r.width), &s) && clip_parameter(va.y, it.dy, 0.0, f32(r.height), &s)) {
+        return it;
     }
     // This part's slab along the major axis.
-    let x_major = abs(dx.x) >= abs(dy.x);
+    let span = part_span(va, vb, r);
+    it.x_major = span.x_major;
     let part_pixels = part_length(r.tile_size);
-    let slab_lo = i32(part * part_pixels);
-    let slab_hi = slab_lo + i32(part_pixels) - 1;
-    if x_major {
-        if !clip_parameter(va.x, dx, f32(slab_lo), f32(slab_hi + 1), &s) {
-            return;
-        }
-    } else if !clip_parameter(va.y, dy, f32(slab_lo), f32(slab_hi + 1), &s) {
-        return;
+    it.slab_lo = span.start + i32(part * part_pixels);
+    it.slab_hi = it.slab_lo + i32(part_pixels) - 1;
+    if it.x_major {
+        it.crosses = clip_parameter(va.x, it.dx, f32(it.slab_lo), f32(it.slab_hi + 1), &s);
+    } else {
+        it.crosses = clip_parameter(va.y, it.dy, f32(it.slab_lo), f32(it.slab_hi + 1), &s);
     }
-    let scale = r.inside - r.outside;
-    var wa = vec2<f32>(0.0);
-    var wb = vec2<f32>(0.0);
-    var segments = 0u;
-    var visible = 0u;
-    let large = Lists(0u, 0u, frame.params.large_offset + view * frame.params.triangle_count,
-        atomicLoad(&status[status_index(view, STATUS_LARGE)]));
-    // Rows and columns are found in f32 with one extra on each side: a row or column the
-    // segment does not really cross clips to nothing and is skipped.
-    let d = vec2<f32>(dx.x, dy.x);
-    let y_s0 = va.y + s.x * d.y;
-    let y_s1 = va.y + s.z * d.y;
-    var row_lo = max(i32(ceil(min(y_s0, y_s1))) - 2, 0);
-    var row_hi = min(i32(floor(max(y_s0, y_s1))) + 1, i32(r.height) - 1);
-    if !x_major {
-        row_lo = max(row_lo, slab_lo);
-        row_hi = min(row_hi, slab_hi);
-    }
-    // Margin of the occluder box filter: far above the f32 error of the boxes.
-    let margin = 1e-3 * (1.0 + max(max(abs(va.x), abs(va.y)), max(abs(vb.x), abs(vb.y))) * 1e-3);
+    it.s = s;
+    return it;
+}
 
-    for (var row = row_lo; row <= row_hi && tick(); row++) {
-        var rs = s;
-        if !clip_parameter(va.y, dy, f32(row), f32(row) + 1.0, &rs) {
+@compute @workgroup_size(64)
+fn main(
+    @builtin(workgroup_id) workgroup_id: vec3<u32>,
+    @builtin(num_workgroups) num_workgroups: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    // Which of the workgroup's items cross a pixel; the others get zero partials here.
+    if lane == 0u {
+        wg_parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
+    }
+    if lane < ITEMS {
+        let item = linear_workgroup_index(workgroup_id, num_workgroups) * ITEMS + lane;
+        let parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
+        var listed = NO_ITEM;
+        var large = 0u;
+        if item < atomicLoad(&status[STATUS_CANDIDATE_TOTAL]) * parts {
+            let it = item_setup(item, parts);
+            if it.crosses {
+                listed = item;
+                large = atomicLoad(&status[status_index(it.edge.view, STATUS_LARGE)]);
+            } else {
+                partials[item] = vec4<f32>(0.0);
+            }
+        }
+        wg_items[lane] = vec2<u32>(listed, large);
+    }
+    let items = workgroupUniformLoad(&wg_items);
+    let parts = workgroupUniformLoad(&wg_parts);
+    // The counts `wg_found` / `wg_hiding` stood at after the last pixel.
+    var found = 0u;
+    var hiding = 0u;
+    // Every loop below that holds a barrier runs the same trip count in every lane: its bounds
+    // come from `workgroupUniformLoad` or from the item's uniform data. They are not cut short on
+    // llvmpipe (a lane leaving early would skip barriers); they are short (≤ ITEMS items, ≤ ~2L + 1
+    // pixels each) and only counted.
+    for (var j = 0u; j < ITEMS; j++) {
+        let item = items[j].x;
+        if item == NO_ITEM {
             continue;
         }
-        let x_s0 = va.x + rs.x * d.x;
-        let x_s1 = va.x + rs.z * d.x;
-        var col_lo = max(i32(ceil(min(x_s0, x_s1))) - 2, 0);
-        var col_hi = min(i32(floor(max(x_s0, x_s1))) + 1, i32(r.width) - 1);
-        if x_major {
-            col_lo = max(col_lo, slab_lo);
-            col_hi = min(col_hi, slab_hi);
+        let large_count = items[j].y;
+        let it = item_setup(item, parts);
+        let edge = it.edge;
+        let va = edge.va;
+        let vb = edge.vb;
+        let vw = frame.views[edge.view];
+        let r = vw.raster;
+        let scale = r.inside - r.outside;
+        var wa = vec2<f32>(0.0);
+        var wb = vec2<f32>(0.0);
+        var segments = 0u;
+        var visible = 0u;
+        let large = Lists(0u, 0u, frame.params.large_offset + edge.view * frame.params.triangle_count, large_count);
+        // Rows and columns are found in f32 with one extra on each side: a row or column the
+        // segment does not really cross clips to nothing and is skipped.
+        let d = vec2<f32>(it.dx.x, it.dy.x);
+        let y_s0 = va.y + it.s.x * d.y;
+        let y_s1 = va.y + it.s.z * d.y;
+        var row_lo = max(i32(ceil(min(y_s0, y_s1))) - 2, 0);
+        var row_hi = min(i32(floor(max(y_s0, y_s1))) + 1, i32(r.height) - 1);
+        if !it.x_major {
+            row_lo = max(row_lo, it.slab_lo);
+            row_hi = min(row_hi, it.slab_hi);
         }
-        for (var col = col_lo; col <= col_hi && tick(); col++) {
-            var c = rs;
-            if !clip_parameter(va.x, dx, f32(col), f32(col) + 1.0, &c) || ff_le(c.zw, c.xy) {
+        // Margin of the occluder box filter: far above the f32 error of the boxes.
+        let margin = 1e-3 * (1.0 + max(max(abs(va.x), abs(va.y)), max(abs(vb.x), abs(vb.y))) * 1e-3);
+
+        for (var row = row_lo; row <= row_hi; row++) {
+            iterations += 1u;
+            var rs = it.s;
+            if !clip_parameter(va.y, it.dy, f32(row), f32(row) + 1.0, &rs) {
                 continue;
             }
-            let on_border = (ff_is_zero(dy) && (va.y == f32(row) || va.y == f32(row) + 1.0))
-                || (ff_is_zero(dx) && (va.x == f32(col) || va.x == f32(col) + 1.0));
-            let pixel = vw.pixel_offset + u32(row) * r.width + u32(col);
-            let g = d_image[pixel] * scale * select(1.0, 0.5, on_border);
-            if g == 0.0 {
-                continue;
+            let x_s0 = va.x + rs.x * d.x;
+            let x_s1 = va.x + rs.z * d.x;
+            var col_lo = max(i32(ceil(min(x_s0, x_s1))) - 2, 0);
+            var col_hi = min(i32(floor(max(x_s0, x_s1))) + 1, i32(r.width) - 1);
+            if it.x_major {
+                col_lo = max(col_lo, it.slab_lo);
+                col_hi = min(col_hi, it.slab_hi);
             }
-            segments++;
-            let tile = vw.tile_offset + (u32(row) / r.tile_size) * r.tiles_x + u32(col) / r.tile_size;
-            var lists = large;
-            lists.tile_start = min(bins[tile], frame.params.bin_capacity);
-            lists.tile_count = min(bins[tile + 1u], frame.params.bin_capacity) - lists.tile_start;
-            lists.tile_start += frame.params.bin_list_offset;
-            let p0 = va + c.x * d;
-            let p1 = va + c.z * d;
-            let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
-            var k = vec2<f32>(0.0);
-            let n = fill_cache(edge, lists, c, bb);
-            if n <= CACHE {
-                k = visible_weights(edge, lists, c, bb, n, true);
-            } else if n != HIDDEN {
-                // More intervals than the cache holds: recomputed from the lists as needed.
-                k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count, false);
+            for (var col = col_lo; col <= col_hi; col++) {
+                iterations += 1u;
+                var c = rs;
+                if !clip_parameter(va.x, it.dx, f32(col), f32(col) + 1.0, &c) || ff_le(c.zw, c.xy) {
+                    continue;
+                }
+                let on_border = (ff_is_zero(it.dy) && (va.y == f32(row) || va.y == f32(row) + 1.0))
+                    || (ff_is_zero(it.dx) && (va.x == f32(col) || va.x == f32(col) + 1.0));
+                let pixel = vw.pixel_offset + u32(row) * r.width + u32(col);
+                let g = d_image[pixel] * scale * select(1.0, 0.5, on_border);
+                if g == 0.0 {
+                    continue;
+                }
+                segments++;
+                let tile = vw.tile_offset + (u32(row) / r.tile_size) * r.tiles_x + u32(col) / r.tile_size;
+                var lists = large;
+                lists.tile_start = min(bins[tile], frame.params.bin_capacity);
+                lists.tile_count = min(bins[tile + 1u], frame.params.bin_capacity) - lists.tile_start;
+                lists.tile_start += frame.params.bin_list_offset;
+                let p0 = va + c.x * d;
+                let p1 = va + c.z * d;
+                let bb = vec4<f32>(min(p0, p1) - margin, max(p0, p1) + margin);
+                // Scan (all lanes) | barrier | sort (lanes k < n) | barrier | merge (lane 0, which
+                // alone writes the item's results).
+                scan_occluders(edge, lists, c, bb, found, hiding, lane);
+                workgroupBarrier();
+                let found_now = atomicLoad(&wg_found);
+                let hiding_now = atomicLoad(&wg_hiding);
+                let n = found_now - found;
+                let hidden = hiding_now != hiding;
+                found = found_now;
+                hiding = hiding_now;
+                if !hidden && n <= SHARED {
+                    sort_intervals(n, lane);
+                }
+                workgroupBarrier();
+                var k = vec2<f32>(0.0);
+                if !hidden && lane == 0u {
+                    if n <= SHARED {
+                        k = merge_sorted(c, n);
+                    } else {
+                        // More intervals than workgroup memory holds: recomputed from the lists.
+                        k = visible_weights(edge, lists, c, bb, lists.tile_count + lists.large_count);
+                    }
+                }
+                if k.x != 0.0 || k.y != 0.0 {
+                    visible++;
+                }
+                wa = ff_add(wa, ff(g * k.x));
+                wb = ff_add(wb, ff(g * k.y));
             }
-            if k.x != 0.0 || k.y != 0.0 {
-                visible++;
-            }
-            wa = ff_add(wa, ff(g * k.x));
-            wb = ff_add(wb, ff(g * k.y));
         }
-    }
-    partials[item] = vec4<f32>(wa, wb);
-    if segments != 0u {
-        atomicAdd(&status[status_index(view, STATUS_SEGMENTS)], segments);
-    }
-    if visible != 0u {
-        atomicAdd(&status[status_index(view, STATUS_VISIBLE)], visible);
+        if lane == 0u {
+            partials[item] = vec4<f32>(wa, wb);
+            if segments != 0u {
+                atomicAdd(&status[status_index(edge.view, STATUS_SEGMENTS)], segments);
+            }
+            if visible != 0u {
+                atomicAdd(&status[status_index(edge.view, STATUS_VISIBLE)], visible);
+            }
+        }
     }
     if exhausted {
         atomicMax(&status[STATUS_MAX_ITERATIONS], 0xffffffffu);

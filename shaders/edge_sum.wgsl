@@ -1,7 +1,8 @@
 // `edge_sum` — the end of `cpu::edge_grad::edge_grad` (src/cpu/edge_grad.rs): adds the parts
 // `edge_grad` computed for each candidate edge, in part order, and applies the outward normal.
 //
-// Reads:  `frame`, `screen`, `edges`, `classes` (edge sides, candidate positions), `partials`.
+// Reads:  `frame`, `screen`, `edges`, `classes` (edge sides, candidate positions), `partials`,
+//         `status` (parts per candidate).
 // Writes: `slots[view · edge_count + e]` = (outward · Σ_p wa_p, outward · Σ_p wb_p) for a
 //         candidate edge (outward = side · (d.y, −d.x)), zero for the others.
 // Dispatch: 1D over view_count · edge_count invocations (64 per workgroup). Deterministic: a
@@ -16,6 +17,7 @@
 @group(0) @binding(3) var<storage, read> classes: array<i32>;
 @group(0) @binding(4) var<storage, read> partials: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> slots: array<EdgeGrad>;
+@group(0) @binding(6) var<storage, read> status: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(
@@ -33,7 +35,7 @@ fn main(
         slots[i] = EdgeGrad(vec2<f32>(0.0), vec2<f32>(0.0));
         return;
     }
-    let parts = frame.params.parts;
+    let parts = max(status[STATUS_PARTS], 1u);
     let first = u32(classes[candidate_index_offset() + i]) * parts;
     var wa = vec2<f32>(0.0);
     var wb = vec2<f32>(0.0);

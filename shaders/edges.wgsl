@@ -9,6 +9,7 @@
 //!include shared/frame.wgsl
 //!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
+//!include shared/parts.wgsl
 
 @group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
@@ -25,8 +26,8 @@ fn bits(s: ScreenVertex) -> vec2<u32> {
     return bitcast<vec2<u32>>(s.position);
 }
 
-// Reads:  `frame`, `triangles`, `edges` (2 vertex indices per edge), `edge_faces`, the face
-//         orientations in `classes`.
+// Reads:  `frame`, `screen` (positions of candidates), `triangles`, `edges` (2 vertex indices per
+//         edge), `edge_faces`, the face orientations in `classes`.
 // Writes: `classes[view · edge_count + e]` = +1 when the faces of edge e = [a, b] all lie left of
 //         a → b, −1 when all lie right, 0 otherwise (no face with a non-zero orientation, or
 //         faces on both sides); a face running a → b lies on the side of its orientation, one
@@ -34,7 +35,8 @@ fn bits(s: ScreenVertex) -> vec2<u32> {
 //         list (`classes` from `candidate_list_offset()`, position k from
 //         `status[STATUS_CANDIDATE_TOTAL]`, atomic) and k is stored at
 //         `classes[candidate_index_offset() + view · edge_count + e]`;
-//         `status[status_index(view, STATUS_CANDIDATES)]` (+1 per candidate).
+//         `status[status_index(view, STATUS_CANDIDATES)]` (+1 per candidate);
+//         `status[STATUS_PARTS]`: the most parts (shared/parts.wgsl) of any candidate (atomic max).
 // Dispatch: 1D over view_count · edge_count invocations (64 per workgroup), after `orient`.
 @compute @workgroup_size(64)
 fn main(
@@ -78,6 +80,9 @@ fn main(
         let k = atomicAdd(&status[STATUS_CANDIDATE_TOTAL], 1u);
         classes[candidate_list_offset() + k] = i32(i);
         classes[candidate_index_offset() + i] = i32(k);
+        let base = view * frame.params.vertex_count;
+        let span = part_span(screen[base + a].position, screen[base + b].position, frame.views[view].raster);
+        atomicMax(&status[STATUS_PARTS], min(span.count, frame.params.parts));
     }
 }
 

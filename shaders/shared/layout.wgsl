@@ -89,8 +89,9 @@ struct FrameParams {
     // Index of the first large-triangle list in the `bins` buffer (view v's list starts at
     // large_offset + v · triangle_count; see shared/tiles.wgsl).
     large_offset: u32,
-    // Parts per candidate edge in `edge_grad` (the largest ceil(image side / part_length(tile_size))
-    // of the views).
+    // The most parts a candidate edge can have in `edge_grad` (shared/parts.wgsl): the largest
+    // floor(image side / part_length(tile_size)) + 1 of the views. The frame's own count is
+    // `status[STATUS_PARTS]`.
     parts: u32,
     // Loop iterations one SIMD batch of invocations may run before the stage stops and reports
     // it: 60,000 on llvmpipe (which silently ends loops after 65,535), 0 (no limit) elsewhere.
@@ -121,17 +122,19 @@ struct Frame {
 //   [2]                 candidate edges of all views (`edges`: the length of the candidate list)
 //   [3]                 most loop iterations one invocation of `coverage` or `edge_grad` ran
 //   [4]                 1 when a fused step skipped `edge_grad` (partials buffer too small)
-//   [5 + 5·v + 0]       culled triangles of view v (`bin_count`)
-//   [5 + 5·v + 1]       candidate edges of view v (`edges`)
-//   [5 + 5·v + 2]       segments of view v (`edge_grad`)
-//   [5 + 5·v + 3]       visible segments of view v (`edge_grad`)
-//   [5 + 5·v + 4]       large triangles of view v (`bin_count`: the length of its large list)
+//   [5]                 parts per candidate edge: the most any candidate has (`edges`, atomic max)
+//   [6 + 5·v + 0]       culled triangles of view v (`bin_count`)
+//   [6 + 5·v + 1]       candidate edges of view v (`edges`)
+//   [6 + 5·v + 2]       segments of view v (`edge_grad`)
+//   [6 + 5·v + 3]       visible segments of view v (`edge_grad`)
+//   [6 + 5·v + 4]       large triangles of view v (`bin_count`: the length of its large list)
 const STATUS_NEEDED: u32 = 0u;
 const STATUS_OVERFLOW: u32 = 1u;
 const STATUS_CANDIDATE_TOTAL: u32 = 2u;
 const STATUS_MAX_ITERATIONS: u32 = 3u;
 const STATUS_PARTIALS_SHORT: u32 = 4u;
-const STATUS_VIEW_BASE: u32 = 5u;
+const STATUS_PARTS: u32 = 5u;
+const STATUS_VIEW_BASE: u32 = 6u;
 const STATUS_VIEW_STRIDE: u32 = 5u;
 const STATUS_CULLED: u32 = 0u;
 const STATUS_CANDIDATES: u32 = 1u;

@@ -11,8 +11,9 @@
 //!   `edge_sum`, `gather`, and the copy of the per-view vertex gradients). Only the images, the
 //!   vertex gradients and a few counters are read back.
 //! - **Backward work items.** The forward reads back how many candidate edges there are; the
-//!   backward runs `edge_grad` on candidates × parts (each part one 16-pixel slab of the edge's
-//!   major axis) and `edge_sum` adds the parts of each edge in order.
+//!   backward runs `edge_grad` on candidates × parts (each part a slab of 4 to 16 pixel lines of
+//!   the edge's major axis, as many per candidate as the frame's longest candidate needs, a count
+//!   the `edges` stage finds) and `edge_sum` adds the parts of each edge in order.
 //! - **Bin capacity.** The number of (triangle, tile) entries is only known on the GPU. The
 //!   forward writes at most the current capacity and reports the number needed with the image;
 //!   when it did not fit, the buffer grows and the forward runs again (rarely: the capacity is
@@ -31,8 +32,8 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 use super::stages::{
-    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT,
-    MAX_VIEWS,
+    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP,
+    LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
 };
 use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
 use crate::camera::ViewParams;
@@ -254,6 +255,8 @@ struct FrameBuffers {
     /// Candidate edges of all views in the last forward (the backward's work items are
     /// candidates × parts).
     candidates: u32,
+    /// Parts per candidate in the last forward ([`status::PARTS`]).
+    parts: u32,
     /// Buffers only the bind groups use (masks), kept with the frame.
     _internal: Vec<wgpu::Buffer>,
     /// The occluder record of every bin list entry (`edge_grad` binds it per partials buffer).
@@ -298,14 +301,80 @@ pub(crate) struct GpuBackend {
     timings: Vec<StageTiming>,
 }
 
-/// Begins compute pass `label`, with timestamps when `timer` is on.
-fn stage_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    timer: &mut Option<StageTimer>,
-    label: &'static str,
-) -> wgpu::ComputePass<'e> {
-    let timestamp_writes = timer.as_mut().and_then(|t| t.writes(label));
-    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes })
+/// How many workgroups a stage runs.
+enum Dispatch<'a> {
+    /// `invocations` work items, `per_workgroup` to a workgroup, as a 2D grid when needed
+    /// ([`GpuContext::dispatch_1d`]).
+    Linear { invocations: u32, per_workgroup: u32 },
+    /// This many workgroups, as a 2D grid when needed ([`super::workgroup_grid`]).
+    Workgroups(u32),
+    /// The grid in this buffer (written by an earlier stage of the same submission).
+    Indirect(&'a wgpu::Buffer),
+}
+
+/// Records the stages of one submission: all in one compute pass (wgpu orders the dispatches), or,
+/// when profiling, each in a pass of its own with timestamps around it.
+#[allow(clippy::large_enum_variant)] // one per submission, on the stack: boxing would allocate
+enum StagePasses<'e> {
+    Shared(wgpu::ComputePass<'e>),
+    Timed { encoder: &'e mut wgpu::CommandEncoder, timer: &'e mut StageTimer },
+}
+
+impl<'e> StagePasses<'e> {
+    fn new(encoder: &'e mut wgpu::CommandEncoder, timer: Option<&'e mut StageTimer>) -> StagePasses<'e> {
+        match timer {
+            Some(timer) => StagePasses::Timed { encoder, timer },
+            None => {
+                StagePasses::Shared(encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("diffsil"),
+                    timestamp_writes: None,
+                }))
+            }
+        }
+    }
+
+    /// Records stage `label`: `pipeline` with bind group 0 `group`, over `dispatch`.
+    fn run(
+        &mut self,
+        ctx: &GpuContext,
+        label: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        group: &wgpu::BindGroup,
+        dispatch: Dispatch<'_>,
+    ) -> Result<()> {
+        let record = |pass: &mut wgpu::ComputePass<'_>| -> Result<()> {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
+            match dispatch {
+                Dispatch::Linear { invocations, per_workgroup } => {
+                    ctx.dispatch_1d(pass, invocations, per_workgroup)?;
+                }
+                Dispatch::Workgroups(count) => {
+                    let grid = super::workgroup_grid(count, ctx.limits().max_compute_workgroups_per_dimension)?;
+                    if grid[0] > 0 {
+                        pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
+                    }
+                }
+                Dispatch::Indirect(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
+            }
+            Ok(())
+        };
+        match self {
+            StagePasses::Shared(pass) => record(pass),
+            StagePasses::Timed { encoder, timer } => {
+                let timestamp_writes = timer.writes(label);
+                record(
+                    &mut encoder
+                        .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes }),
+                )
+            }
+        }
+    }
+}
+
+/// 64 invocations per workgroup, one work item each (most stages).
+fn per_invocation(invocations: u32) -> Dispatch<'static> {
+    Dispatch::Linear { invocations, per_workgroup: 64 }
 }
 
 impl GpuBackend {
@@ -362,7 +431,7 @@ impl GpuBackend {
         let ctx = &self.ctx;
         let topo = self.topology.as_ref().expect("topology uploaded");
         let f = self.frame.as_mut().expect("a forward ran");
-        let needed = (f.candidates as u64 * f.uniform.params.parts as u64).max(1);
+        let needed = (f.candidates as u64 * f.parts.max(1) as u64).max(1);
         check_index(needed)?;
         if f.partials.as_ref().is_some_and(|p| p.capacity >= needed) {
             return Ok(());
@@ -392,7 +461,7 @@ impl GpuBackend {
             "edge_sum",
             &p.edge_sum,
             0,
-            &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots)],
+            &[(0, u), (1, &f.screen), (2, &topo.edges), (3, &f.classes), (4, &buffer), (5, &f.slots), (6, &f.status)],
         )?;
         f.uniform.params.partial_capacity = capacity.min(u32::MAX as u64) as u32;
         f.partials = Some(Partials { _buffer: buffer, capacity, edge_grad, edge_sum });
@@ -507,7 +576,9 @@ impl GpuBackend {
                 continue;
             }
             self.check_iterations(counters[status::MAX_ITERATIONS])?;
-            self.frame.as_mut().expect("built above").candidates = counters[status::CANDIDATE_TOTAL];
+            let frame = self.frame.as_mut().expect("built above");
+            frame.candidates = counters[status::CANDIDATE_TOTAL];
+            frame.parts = counters[status::PARTS];
             self.last_generation += 1;
             self.generation = self.last_generation;
             let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
@@ -563,7 +634,7 @@ impl GpuBackend {
         let parts = layout
             .views
             .iter()
-            .map(|v| v.raster.width.max(v.raster.height).div_ceil(part_length(v.raster.tile_size)))
+            .map(|v| v.raster.width.max(v.raster.height) / part_length(v.raster.tile_size) + 1)
             .max()
             .unwrap_or(1);
         if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
@@ -681,6 +752,7 @@ impl GpuBackend {
                 0,
                 &[
                     (0, u),
+                    (1, &screen),
                     (2, &topo.triangles),
                     (3, &topo.edges),
                     (4, &topo.edge_faces),
@@ -731,6 +803,7 @@ impl GpuBackend {
             partials: None,
             loss: None,
             candidates: 0,
+            parts: 0,
             _internal: vec![masks, snapped],
             dispatch,
             occluders,
@@ -785,82 +858,26 @@ impl GpuBackend {
         encoder.clear_buffer(&f.status, 0, None);
         let per_triangle = check_index(n * params.triangle_count as u64)?;
         let recorded = (|| -> Result<()> {
+            let mut passes = StagePasses::new(&mut encoder, timer.as_mut());
+            let per_vertex = per_invocation(check_index(n * vertices)?);
             if let Some(group) = &g.project {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "project");
-                pass.set_pipeline(&p.project);
-                pass.set_bind_group(0, group, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
+                passes.run(ctx, "project", &p.project, group, per_vertex)?;
             }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "snap");
-                pass.set_pipeline(&p.snap);
-                pass.set_bind_group(0, &g.snap, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(n * vertices)?, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "orient");
-                pass.set_pipeline(&p.orient);
-                pass.set_bind_group(0, &g.orient, &[]);
-                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "bin_count");
-                pass.set_pipeline(&p.bin_count);
-                pass.set_bind_group(0, &g.bin_count, &[]);
-                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "scan");
-                pass.set_pipeline(&p.scan);
-                pass.set_bind_group(0, &g.scan, &[]);
-                pass.dispatch_workgroups(1, 1, 1);
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "bin_fill");
-                pass.set_pipeline(&p.bin_fill);
-                pass.set_bind_group(0, &g.bin_fill, &[]);
-                ctx.dispatch_1d(&mut pass, per_triangle, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "coverage");
-                pass.set_pipeline(&p.coverage);
-                pass.set_bind_group(0, &g.coverage, &[]);
-                let grid =
-                    super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
-                if grid[0] > 0 {
-                    pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
-                }
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "resolve");
-                pass.set_pipeline(&p.resolve);
-                pass.set_bind_group(0, &g.resolve, &[]);
-                ctx.dispatch_1d(&mut pass, params.total_pixels, 64)?;
-            }
-            {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "edges");
-                pass.set_pipeline(&p.edges);
-                pass.set_bind_group(0, &g.edges, &[]);
-                ctx.dispatch_1d(&mut pass, check_index(n * params.edge_count as u64)?, 64)?;
-            }
+            passes.run(ctx, "snap", &p.snap, &g.snap, per_invocation(check_index(n * vertices)?))?;
+            passes.run(ctx, "orient", &p.orient, &g.orient, per_invocation(per_triangle))?;
+            passes.run(ctx, "bin_count", &p.bin_count, &g.bin_count, per_invocation(per_triangle))?;
+            passes.run(ctx, "scan", &p.scan, &g.scan, Dispatch::Workgroups(1))?;
+            passes.run(ctx, "bin_fill", &p.bin_fill, &g.bin_fill, per_invocation(per_triangle))?;
+            passes.run(ctx, "coverage", &p.coverage, &g.coverage, Dispatch::Workgroups(params.total_tiles))?;
+            passes.run(ctx, "resolve", &p.resolve, &g.resolve, per_invocation(params.total_pixels))?;
+            let per_edge = per_invocation(check_index(n * params.edge_count as u64)?);
+            passes.run(ctx, "edges", &p.edges, &g.edges, per_edge)?;
             if let (Some(_), Some(loss)) = (mode.targets(), &f.loss) {
-                let mut pass = stage_pass(&mut encoder, &mut timer, "loss");
-                pass.set_pipeline(&p.loss);
-                pass.set_bind_group(0, &loss.group, &[]);
-                let grid =
-                    super::workgroup_grid(params.total_tiles, ctx.limits().max_compute_workgroups_per_dimension)?;
-                if grid[0] > 0 {
-                    pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
-                }
+                passes.run(ctx, "loss", &p.loss, &loss.group, Dispatch::Workgroups(params.total_tiles))?;
             }
             if let (Some(args), Some(partials)) = (fused_args, &f.partials) {
-                {
-                    let mut pass = stage_pass(&mut encoder, &mut timer, "edge_grad_args");
-                    pass.set_pipeline(&p.edge_grad_args);
-                    pass.set_bind_group(0, args, &[]);
-                    pass.dispatch_workgroups(1, 1, 1);
-                }
-                self.record_backward(&mut encoder, &mut timer, partials, Some(&f.dispatch))?;
+                passes.run(ctx, "edge_grad_args", &p.edge_grad_args, args, Dispatch::Workgroups(1))?;
+                self.record_backward(&mut passes, partials, Some(&f.dispatch))?;
             }
             Ok(())
         })();
@@ -945,8 +962,7 @@ impl GpuBackend {
     /// frame's candidates × parts), `edge_sum` and `gather`.
     fn record_backward(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &mut Option<StageTimer>,
+        passes: &mut StagePasses<'_>,
         partials: &Partials,
         dispatch: Option<&wgpu::Buffer>,
     ) -> Result<()> {
@@ -955,30 +971,17 @@ impl GpuBackend {
         let f = self.frame.as_ref().expect("a forward ran");
         let fp = *f.params();
         let (views, vertices) = (fp.view_count as u64, fp.vertex_count as u64);
-        {
-            let mut pass = stage_pass(encoder, timer, "edge_grad");
-            pass.set_pipeline(&p.edge_grad);
-            pass.set_bind_group(0, &partials.edge_grad, &[]);
-            match dispatch {
-                Some(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
-                None => {
-                    ctx.dispatch_1d(&mut pass, check_index(f.candidates as u64 * fp.parts as u64)?, 64)?;
-                }
-            }
-        }
-        {
-            let mut pass = stage_pass(encoder, timer, "edge_sum");
-            pass.set_pipeline(&p.edge_sum);
-            pass.set_bind_group(0, &partials.edge_sum, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(views * fp.edge_count as u64)?, 64)?;
-        }
-        {
-            let mut pass = stage_pass(encoder, timer, "gather");
-            pass.set_pipeline(&p.gather);
-            pass.set_bind_group(0, &f.groups.gather, &[]);
-            ctx.dispatch_1d(&mut pass, check_index(views * vertices)?, 64)?;
-        }
-        Ok(())
+        let edge_grad = match dispatch {
+            Some(arguments) => Dispatch::Indirect(arguments),
+            None => Dispatch::Linear {
+                invocations: check_index(f.candidates as u64 * f.parts.max(1) as u64)?,
+                per_workgroup: EDGE_GRAD_ITEMS_PER_WORKGROUP,
+            },
+        };
+        passes.run(ctx, "edge_grad", &p.edge_grad, &partials.edge_grad, edge_grad)?;
+        let per_edge = per_invocation(check_index(views * fp.edge_count as u64)?);
+        passes.run(ctx, "edge_sum", &p.edge_sum, &partials.edge_sum, per_edge)?;
+        passes.run(ctx, "gather", &p.gather, &f.groups.gather, per_invocation(check_index(views * vertices)?))
     }
 
     /// The backward of all views in one submission: `∂L/∂I` per view → `∂L/∂(screen vertex)` per
@@ -1028,7 +1031,7 @@ impl GpuBackend {
         for v in 0..n {
             encoder.clear_buffer(&f.status, status::index(v, status::SEGMENTS) as u64 * 4, Some(8));
         }
-        let recorded = self.record_backward(&mut encoder, &mut timer, partials, None);
+        let recorded = self.record_backward(&mut StagePasses::new(&mut encoder, timer.as_mut()), partials, None);
         if let Some(t) = &timer {
             t.resolve(&mut encoder);
         }

@@ -38,11 +38,17 @@ pub const MAX_GPU_TILE_SIZE: u32 = 16;
 
 /// Pixels per part of an edge along its major axis in `edge_grad` for a view with tiles of
 /// `tile_size` pixels: 4 · tile_size, from 4 to 16 (keep in sync with `part_length` in
-/// `shaders/edge_grad.wgsl`). Dense meshes (small tiles) get short parts, so that no invocation
-/// scans many long occluder lists.
+/// `shaders/shared/parts.wgsl`, where the parts of an edge are counted from its own first pixel
+/// line). Dense meshes (small tiles) get short parts, so that no workgroup walks many pixels with
+/// long occluder lists.
 pub fn part_length(tile_size: u32) -> u32 {
     (4 * tile_size).clamp(4, 16)
 }
+
+/// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main`, whose 64 lanes
+/// take the items one after another and split each pixel's occluder scan (keep in sync with
+/// `ITEMS` there).
+pub const EDGE_GRAD_ITEMS_PER_WORKGROUP: u32 = 2;
 
 /// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
 /// workgroup).
@@ -106,8 +112,9 @@ pub struct FrameParams {
     /// Index of the first large-triangle list in the bins buffer (view `v`'s starts at
     /// `large_offset + v · triangle_count`).
     pub large_offset: u32,
-    /// Parts per candidate edge in `edge_grad`: the largest `ceil(image side / part_length)` of
-    /// the views ([`part_length`]).
+    /// The most parts a candidate edge can have in `edge_grad`: the largest
+    /// `floor(image side / part_length) + 1` of the views ([`part_length`]). The frame's own count
+    /// is [`status::PARTS`].
     pub parts: u32,
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
     /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
@@ -144,8 +151,11 @@ pub mod status {
     pub const MAX_ITERATIONS: usize = 3;
     /// 1 when a fused step skipped `edge_grad` because the partials buffer was too small.
     pub const PARTIALS_SHORT: usize = 4;
+    /// Parts per candidate edge in `edge_grad`: the most any candidate has (at most
+    /// [`FrameParams::parts`](super::FrameParams::parts)).
+    pub const PARTS: usize = 5;
     /// First per-view counter; view `v` has [`VIEW_STRIDE`] from `VIEW_BASE + VIEW_STRIDE·v`.
-    pub const VIEW_BASE: usize = 5;
+    pub const VIEW_BASE: usize = 6;
     /// Counters per view.
     pub const VIEW_STRIDE: usize = 5;
     /// Culled triangles (forward).
