@@ -28,7 +28,9 @@
 //! - `edge_grad` runs in float-float arithmetic (`shaders/shared/ff.wgsl`, ~44 bits) where the
 //!   CPU uses f64, so long edges keep their per-pixel accuracy.
 //! - Nothing uses float atomics: every float result is written by one invocation and summed in
-//!   a fixed order, so runs are bit-identical.
+//!   a fixed order, so runs are bit-identical. Where the lanes of a workgroup gather a pixel's
+//!   occlusion intervals in whatever order they find them (`edge_grad`), they sort them before
+//!   the one lane that merges them sums the gaps.
 //!
 //! ## llvmpipe (lavapipe)
 //! Mesa's software rasterizer ends all loops of a shader invocation after 65,535 iterations in

@@ -11,7 +11,7 @@
 //! | `resolve.wgsl`                         | `cpu::resolve::resolve`       | pixel                       |
 //! | `edges.wgsl` (`main`)                  | `cpu::edges::edges`           | view × edge                 |
 //! | `edges.wgsl` (`orient`)                | face orientation of `cpu::edge_grad` | view × triangle      |
-//! | `edge_grad.wgsl`                       | `cpu::edge_grad::edge_grad`   | view × edge                 |
+//! | `edge_grad.wgsl`                       | `cpu::edge_grad::edge_grad`   | candidate edge × part; 64 lanes share 2 |
 //! | `gather.wgsl`                          | `cpu::gather::gather`         | view × vertex               |
 //!
 //! All views of a frame go through each stage in one dispatch: per-view buffers are concatenated
