@@ -12,16 +12,12 @@
 // Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
 // Then `scan` turns the counts into CSR offsets and `bin_fill` writes the lists.
 
-//!include shared/tiles.wgsl
+//!include shared/binning.wgsl
 //!include shared/dispatch.wgsl
 
-@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
-@group(0) @binding(8) var<storage, read> snapped: array<vec2<i32>>;
-@group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> bins: array<u32>;
-@group(0) @binding(6) var<storage, read> classes: array<i32>;
 @group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
@@ -35,33 +31,25 @@ fn main(
     if i >= n * frame.params.view_count {
         return;
     }
-    let view = i / n;
-    let t = i % n;
-    let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
-    let base = view * frame.params.vertex_count;
-    let s0 = screen[base + tri.x];
-    let s1 = screen[base + tri.y];
-    let s2 = screen[base + tri.z];
-    let tiles = triangle_tiles(view, snapped[base + tri.x], snapped[base + tri.y], snapped[base + tri.z]);
-    if tiles.culled {
-        atomicAdd(&status[status_index(view, STATUS_CULLED)], 1u);
+    let b = binned_triangle(i);
+    if b.tiles.culled {
+        atomicAdd(&status[status_index(b.view, STATUS_CULLED)], 1u);
         return;
     }
-    let r = tiles.range;
+    let r = b.tiles.range;
     if r.x < 0 {
         return;
     }
     if is_large(r) {
-        let k = atomicAdd(&status[status_index(view, STATUS_LARGE)], 1u);
-        let entry = frame.params.large_offset + view * n + k;
-        bins[entry] = t;
-        let record = occluder_record(s0, s1, s2, classes[frame.params.orient_offset + view * n + t]);
+        let k = atomicAdd(&status[status_index(b.view, STATUS_LARGE)], 1u);
+        let entry = frame.params.large_offset + b.view * n + k;
+        bins[entry] = b.t;
         let at = 2u * (entry - frame.params.bin_list_offset);
-        occluders[at] = record[0];
-        occluders[at + 1u] = record[1];
+        occluders[at] = b.record[0];
+        occluders[at + 1u] = b.record[1];
         return;
     }
-    let v = frame.views[view];
+    let v = frame.views[b.view];
     for (var ty = r.y; ty <= r.w; ty++) {
         let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
         for (var tx = r.x; tx <= r.z; tx++) {

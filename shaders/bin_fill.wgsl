@@ -16,16 +16,12 @@
 // downstream depends on it (coverage ORs sample bits, `edge_grad` merges intervals in sorted
 // order), so results are deterministic.
 
-//!include shared/tiles.wgsl
+//!include shared/binning.wgsl
 //!include shared/dispatch.wgsl
 
-@group(0) @binding(1) var<storage, read> screen: array<ScreenVertex>;
-@group(0) @binding(7) var<storage, read> snapped: array<vec2<i32>>;
-@group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
-@group(0) @binding(4) var<storage, read_write> bins: array<u32>;
-@group(0) @binding(5) var<storage, read> classes: array<i32>;
-@group(0) @binding(6) var<storage, read_write> occluders: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> bins: array<u32>;
+@group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn main(
@@ -34,33 +30,24 @@ fn main(
     @builtin(local_invocation_index) local_index: u32,
 ) {
     let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
-    let n = frame.params.triangle_count;
-    if i >= n * frame.params.view_count {
+    if i >= frame.params.triangle_count * frame.params.view_count {
         return;
     }
-    let view = i / n;
-    let t = i % n;
-    let tri = vec3<u32>(triangles[3u * t], triangles[3u * t + 1u], triangles[3u * t + 2u]);
-    let base = view * frame.params.vertex_count;
-    let s0 = screen[base + tri.x];
-    let s1 = screen[base + tri.y];
-    let s2 = screen[base + tri.z];
-    let tiles = triangle_tiles(view, snapped[base + tri.x], snapped[base + tri.y], snapped[base + tri.z]);
-    let r = tiles.range;
+    let b = binned_triangle(i);
+    let r = b.tiles.range;
     if r.x < 0 || is_large(r) {
         return;
     }
-    let v = frame.views[view];
-    let record = occluder_record(s0, s1, s2, classes[frame.params.orient_offset + view * n + t]);
+    let v = frame.views[b.view];
     for (var ty = r.y; ty <= r.w; ty++) {
         let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
         for (var tx = r.x; tx <= r.z; tx++) {
             let tile = row + u32(tx);
             let slot = bins[tile] + atomicSub(&counts[tile], 1u) - 1u;
             if slot < frame.params.bin_capacity {
-                bins[frame.params.bin_list_offset + slot] = t;
-                occluders[2u * slot] = record[0];
-                occluders[2u * slot + 1u] = record[1];
+                bins[frame.params.bin_list_offset + slot] = b.t;
+                occluders[2u * slot] = b.record[0];
+                occluders[2u * slot + 1u] = b.record[1];
             }
         }
     }
