@@ -1,9 +1,10 @@
-// `project` — twin of `cpu::project::project` (src/cpu/project.rs): 3D vertices → screen vertices,
-// every view at once; then `snap` (twin of `cpu::project::snap`), for 3D and screen-space input.
+// `project` — twin of `cpu::project::project_and_snap` (src/cpu/project.rs): 3D vertices → screen
+// vertices and their snapped twins, every view at once; `snap_vertices` snaps screen-space input.
 //
 // Reads:  `frame` (uniform: sizes, views), `cameras[view]` (one ViewParams per view),
 //         `positions` (x, y, z per vertex, f32).
-// Writes: `screen[view · vertex_count + v]` for every view and vertex.
+// Writes: `screen[view · vertex_count + v]` and `snapped[view · vertex_count + v]` (as
+//         `snap_vertices` does) for every view and vertex.
 // Dispatch: 1D over view_count · vertex_count invocations (`dispatch_1d`, 64 per workgroup).
 //
 // The arithmetic repeats `ViewParams::project` operation by operation, including glam's
@@ -40,13 +41,16 @@ fn snap_vertices(
     if i >= n * frame.params.view_count {
         return;
     }
-    let s = screen[i];
+    snapped[i] = snapped_vertex(screen[i], frame.views[i / n].raster.units);
+}
+
+// `RasterParams::snap_vertex`: the vertex on the fixed-point grid of `units` per pixel, or
+// (i32::MIN, i32::MIN) when clipped.
+fn snapped_vertex(s: ScreenVertex, units: u32) -> vec2<i32> {
     if s.valid == 0u {
-        snapped[i] = vec2<i32>(INVALID_SNAPPED, INVALID_SNAPPED);
-        return;
+        return vec2<i32>(INVALID_SNAPPED, INVALID_SNAPPED);
     }
-    let units = frame.views[i / n].raster.units;
-    snapped[i] = vec2<i32>(snap(s.position.x, units), snap(s.position.y, units));
+    return vec2<i32>(snap(s.position.x, units), snap(s.position.y, units));
 }
 
 fn dot_glam(r: vec4<f32>, p: vec3<f32>) -> f32 {
@@ -77,11 +81,14 @@ fn main(
     if view.perspective == 1u {
         if !in_range {
             screen[i] = ScreenVertex(vec2<f32>(0.0, 0.0), 0u, 0u);
+            snapped[i] = vec2<i32>(INVALID_SNAPPED, INVALID_SNAPPED);
             return;
         }
         xy = vec2<f32>(div_rn(c.x, depth), div_rn(c.y, depth));
     }
     let s = vec2<f32>(view.centre.x + no_fuse(view.scale * xy.x), view.centre.y - no_fuse(view.scale * xy.y));
     let valid = in_range && abs(s.x) < COORD_LIMIT && abs(s.y) < COORD_LIMIT;
-    screen[i] = ScreenVertex(select(vec2<f32>(0.0, 0.0), s, valid), select(0u, 1u, valid), 0u);
+    let vertex = ScreenVertex(select(vec2<f32>(0.0, 0.0), s, valid), select(0u, 1u, valid), 0u);
+    screen[i] = vertex;
+    snapped[i] = snapped_vertex(vertex, frame.views[i / n].raster.units);
 }

@@ -701,7 +701,7 @@ impl GpuBackend {
                     "project",
                     &p.project,
                     0,
-                    &[(0, u), (1, &cameras), (2, &positions), (3, &screen)],
+                    &[(0, u), (1, &cameras), (2, &positions), (3, &screen), (4, &snapped)],
                 )?)
             } else {
                 None
@@ -859,11 +859,12 @@ impl GpuBackend {
         let per_triangle = check_index(n * params.triangle_count as u64)?;
         let recorded = (|| -> Result<()> {
             let mut passes = StagePasses::new(&mut encoder, timer.as_mut());
+            // 3D input is projected and snapped in one stage, screen-space input only snapped.
             let per_vertex = per_invocation(check_index(n * vertices)?);
-            if let Some(group) = &g.project {
-                passes.run(ctx, "project", &p.project, group, per_vertex)?;
+            match &g.project {
+                Some(group) => passes.run(ctx, "project", &p.project, group, per_vertex)?,
+                None => passes.run(ctx, "snap", &p.snap, &g.snap, per_vertex)?,
             }
-            passes.run(ctx, "snap", &p.snap, &g.snap, per_invocation(check_index(n * vertices)?))?;
             passes.run(ctx, "orient", &p.orient, &g.orient, per_invocation(per_triangle))?;
             passes.run(ctx, "bin_count", &p.bin_count, &g.bin_count, per_invocation(per_triangle))?;
             passes.run(ctx, "scan", &p.scan, &g.scan, Dispatch::Workgroups(1))?;
