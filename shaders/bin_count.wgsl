@@ -1,14 +1,17 @@
 // `bin_count` — first half of the GPU twin of `cpu::bin::bin` (src/cpu/bin.rs): counts the
-// triangles listed in every tile, and the culled triangles of every view.
+// triangles listed in every tile, and the culled triangles of every view; on the way, every
+// face's orientation (`cpu::edges::face_orientations`).
 //
 // Reads:  `frame`, `screen` and `snapped` (all views), `triangles` (3 indices per triangle).
-// Writes: `counts[tile]` (+1 per listed triangle, atomic; cleared by the host before),
+// Writes: `classes[orient_offset + view · triangle_count + t]` = `face_orientation` (for
+//         `bin_fill`, `edges` and `edge_grad`),
+//         `counts[tile]` (+1 per listed triangle, atomic; cleared by the host before),
 //         `status[status_index(view, STATUS_CULLED)]` (+1 per culled triangle); a large triangle
 //         (more than LARGE_TILES tiles) is appended to its view's large list instead:
 //         `bins[large_offset + view · triangle_count + k]`, k from
 //         `status[status_index(view, STATUS_LARGE)]` (atomic).
 //         With a large triangle's entry it writes its occluder record (`occluder_record`) into
-//         `occluders`, reading its orientation from `classes` (so `orient` runs first).
+//         `occluders`.
 // Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
 // Then `scan` turns the counts into CSR offsets and `bin_fill` writes the lists.
 
@@ -18,6 +21,7 @@
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> bins: array<u32>;
+@group(0) @binding(6) var<storage, read_write> classes: array<i32>;
 @group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
@@ -31,7 +35,9 @@ fn main(
     if i >= n * frame.params.view_count {
         return;
     }
-    let b = binned_triangle(i);
+    let orientation = face_orientation(i);
+    classes[frame.params.orient_offset + i] = orientation;
+    let b = binned_triangle(i, orientation);
     if b.tiles.culled {
         atomicAdd(&status[status_index(b.view, STATUS_CULLED)], 1u);
         return;

@@ -1,7 +1,8 @@
 // `bin_fill` — last half of the GPU twin of `cpu::bin::bin`: writes every listed triangle into
 // the lists of its tiles.
 //
-// Reads:  `frame`, `screen`, `snapped`, `triangles`, `classes` (face orientations), the CSR
+// Reads:  `frame`, `screen`, `snapped`, `triangles`, `classes` (face orientations from
+//         `bin_count`), the CSR
 //         offsets `bins[0 ..= total_tiles]`.
 // Writes: `bins[bin_list_offset + offsets[tile] + k]` = triangle index, for k < counts[tile],
 //         and its occluder record (`occluder_record`, orientation from `classes`) at
@@ -21,6 +22,7 @@
 
 @group(0) @binding(3) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> bins: array<u32>;
+@group(0) @binding(6) var<storage, read> classes: array<i32>;
 @group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
@@ -33,7 +35,7 @@ fn main(
     if i >= frame.params.triangle_count * frame.params.view_count {
         return;
     }
-    let b = binned_triangle(i);
+    let b = binned_triangle(i, classes[frame.params.orient_offset + i]);
     let r = b.tiles.range;
     if r.x < 0 || is_large(r) {
         return;

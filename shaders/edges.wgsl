@@ -1,13 +1,10 @@
-// `edges` — twin of `cpu::edges` (src/cpu/edges.rs): `orient`, the orientation of every face
-// (`face_orientations`), then `main`, which mesh edges may lie on the silhouette of each view and
-// on which side their inside lies (`edges`).
-//
-// The orientation is the sign the CPU's f64 cross product of the unsnapped f32 screen positions
-// has, reproduced exactly in integer arithmetic (`orient_f64_sign`, shared/exact.wgsl), so GPU
-// and CPU pick the same candidate edges, bit for bit; `edge_grad` reuses the orientations.
+// `edges` — twin of `cpu::edges` (src/cpu/edges.rs): which mesh edges may lie on the silhouette of
+// each view and on which side their inside lies, from the face orientations `bin_count` stored
+// (`face_orientations`: the sign the CPU's f64 cross product of the unsnapped f32 screen positions
+// has, reproduced exactly in integer arithmetic, shared/binning.wgsl), so GPU and CPU pick the
+// same candidate edges, bit for bit; `edge_grad` reuses the orientations.
 
 //!include shared/frame.wgsl
-//!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
 //!include shared/parts.wgsl
 
@@ -22,10 +19,6 @@
 @group(0) @binding(5) var<storage, read_write> classes: array<i32>;
 @group(0) @binding(6) var<storage, read_write> status: array<atomic<u32>>;
 
-fn bits(s: ScreenVertex) -> vec2<u32> {
-    return bitcast<vec2<u32>>(s.position);
-}
-
 // Reads:  `frame`, `screen` (positions of candidates), `triangles`, `edges` (2 vertex indices per
 //         edge), `edge_faces`, the face orientations in `classes`.
 // Writes: `classes[view · edge_count + e]` = +1 when the faces of edge e = [a, b] all lie left of
@@ -37,7 +30,7 @@ fn bits(s: ScreenVertex) -> vec2<u32> {
 //         `classes[candidate_index_offset() + view · edge_count + e]`;
 //         `status[status_index(view, STATUS_CANDIDATES)]` (+1 per candidate);
 //         `status[STATUS_PARTS]`: the most parts (shared/parts.wgsl) of any candidate (atomic max).
-// Dispatch: 1D over view_count · edge_count invocations (64 per workgroup), after `orient`.
+// Dispatch: 1D over view_count · edge_count invocations (64 per workgroup), after `bin_count`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
@@ -84,33 +77,4 @@ fn main(
         let span = part_span(screen[base + a].position, screen[base + b].position, frame.views[view].raster);
         atomicMax(&status[STATUS_PARTS], min(span.count, frame.params.parts));
     }
-}
-
-// Reads:  `frame`, `screen`, `triangles`.
-// Writes: `classes[orient_offset + view · triangle_count + t]` = sign of the CPU's f64
-//         `cross(q1 − q0, q2 − q0)` of face t in view `view` (0 when a vertex is culled or the
-//         face has zero area).
-// Dispatch: 1D over view_count · triangle_count invocations (64 per workgroup).
-@compute @workgroup_size(64)
-fn orient(
-    @builtin(workgroup_id) workgroup_id: vec3<u32>,
-    @builtin(num_workgroups) num_workgroups: vec3<u32>,
-    @builtin(local_invocation_index) local_index: u32,
-) {
-    let i = linear_invocation_index(workgroup_id, num_workgroups, local_index, 64u);
-    let n = frame.params.triangle_count;
-    if i >= n * frame.params.view_count {
-        return;
-    }
-    let view = i / n;
-    let t = i % n;
-    let base = view * frame.params.vertex_count;
-    let s0 = screen[base + triangles[3u * t]];
-    let s1 = screen[base + triangles[3u * t + 1u]];
-    let s2 = screen[base + triangles[3u * t + 2u]];
-    var o = 0;
-    if s0.valid != 0u && s1.valid != 0u && s2.valid != 0u {
-        o = orient_f64_sign(bits(s0), bits(s1), bits(s2));
-    }
-    classes[frame.params.orient_offset + i] = o;
 }

@@ -128,7 +128,6 @@ struct Pipelines {
     coverage: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
     edges: wgpu::ComputePipeline,
-    orient: wgpu::ComputePipeline,
     edge_grad: wgpu::ComputePipeline,
     edge_grad_args: wgpu::ComputePipeline,
     edge_sum: wgpu::ComputePipeline,
@@ -147,7 +146,6 @@ impl Pipelines {
             coverage: ctx.compute_pipeline("coverage.wgsl", "main")?,
             resolve: ctx.compute_pipeline("resolve.wgsl", "main")?,
             edges: ctx.compute_pipeline("edges.wgsl", "main")?,
-            orient: ctx.compute_pipeline("edges.wgsl", "orient")?,
             edge_grad: ctx.compute_pipeline("edge_grad.wgsl", "main")?,
             edge_grad_args: ctx.compute_pipeline("edge_grad.wgsl", "args")?,
             edge_sum: ctx.compute_pipeline("edge_sum.wgsl", "main")?,
@@ -204,7 +202,6 @@ struct BindGroups {
     coverage: wgpu::BindGroup,
     resolve: wgpu::BindGroup,
     edges: wgpu::BindGroup,
-    orient: wgpu::BindGroup,
     gather: wgpu::BindGroup,
     /// `edge_grad.wgsl`'s `args` (the fused step's indirect dispatch); `None` where the device
     /// cannot dispatch indirectly.
@@ -760,12 +757,6 @@ impl GpuBackend {
                     (6, &status_buffer),
                 ],
             )?,
-            orient: ctx.bind_entries(
-                "orient",
-                &p.orient,
-                0,
-                &[(0, u), (1, &screen), (2, &topo.triangles), (5, &classes)],
-            )?,
             edge_grad_args: if ctx.supports_indirect_dispatch() {
                 Some(ctx.bind_entries(
                     "edge_grad args",
@@ -865,7 +856,6 @@ impl GpuBackend {
                 Some(group) => passes.run(ctx, "project", &p.project, group, per_vertex)?,
                 None => passes.run(ctx, "snap", &p.snap, &g.snap, per_vertex)?,
             }
-            passes.run(ctx, "orient", &p.orient, &g.orient, per_invocation(per_triangle))?;
             passes.run(ctx, "bin_count", &p.bin_count, &g.bin_count, per_invocation(per_triangle))?;
             passes.run(ctx, "scan", &p.scan, &g.scan, Dispatch::Workgroups(1))?;
             passes.run(ctx, "bin_fill", &p.bin_fill, &g.bin_fill, per_invocation(per_triangle))?;

@@ -5,12 +5,11 @@
 //!
 //! | stage (shader)                         | CPU twin                      | one invocation per          |
 //! |----------------------------------------|-------------------------------|-----------------------------|
-//! | `project.wgsl` (3D input only)         | `cpu::project::project`       | view × vertex               |
-//! | `bin_count.wgsl`, `scan.wgsl`, `bin_fill.wgsl` | `cpu::bin::bin`       | view × triangle (scan: one workgroup) |
+//! | `project.wgsl` (`main` for 3D input, `snap_vertices` for screen input) | `cpu::project::project_and_snap` | view × vertex |
+//! | `bin_count.wgsl`, `scan.wgsl`, `bin_fill.wgsl` | `cpu::bin::bin`; `bin_count` also `cpu::edges::face_orientations` | view × triangle (scan: one workgroup) |
 //! | `coverage.wgsl`                        | `cpu::coverage::coverage`     | pixel; one workgroup per tile |
 //! | `resolve.wgsl`                         | `cpu::resolve::resolve`       | pixel                       |
-//! | `edges.wgsl` (`main`)                  | `cpu::edges::edges`           | view × edge                 |
-//! | `edges.wgsl` (`orient`)                | face orientation of `cpu::edge_grad` | view × triangle      |
+//! | `edges.wgsl`                           | `cpu::edges::edges`           | view × edge                 |
 //! | `edge_grad.wgsl`                       | `cpu::edge_grad::edge_grad`   | candidate edge × part; 64 lanes share 2 |
 //! | `gather.wgsl`                          | `cpu::gather::gather`         | view × vertex               |
 //!
