@@ -1,7 +1,7 @@
 // `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage.rs): the F×F sample masks of
 // every pixel of every view.
 //
-// Reads:  `frame`, `snapped` (from `snap_vertices` in project.wgsl), `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
+// Reads:  `frame`, `snapped` (from project.wgsl), `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
 //         large-triangle lists), `status` (the large lists' lengths).
 // Writes: `masks[(pixel_offset + row · width + column) · words_per_pixel + w]` for every pixel of
 //         every view (each written exactly once, by the invocation that owns the pixel).
