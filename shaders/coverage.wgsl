@@ -177,9 +177,6 @@ fn main(
     let tile_cols = vec2<i32>(i32(tile_x) * f, i32(tile_x + t) * f - 1);
     let tile_rows = vec2<i32>(i32(tile_y) * f, i32(tile_y + t) * f - 1);
 
-    for (var w = lid; w < tile_pixels * wpp; w += 256u) {
-        atomicStore(&sh_masks[w], 0u);
-    }
     if lid == 0u {
         let cap = frame.params.bin_capacity;
         let start = min(bins[g], cap);
@@ -187,6 +184,20 @@ fn main(
     }
     let range = workgroupUniformLoad(&sh_range);
     let total = range.y + range.z;
+    if total == 0u {
+        // No triangle touches the tile (most tiles of a mesh that fills part of the view).
+        if in_image && lane == 0u {
+            let base = (vw.pixel_offset + py * r.width + px) * wpp;
+            for (var w = 0u; w < wpp; w++) {
+                masks[base + w] = 0u;
+            }
+        }
+        return;
+    }
+    // (The first chunk's barrier orders this before the lanes' ORs.)
+    for (var w = lid; w < tile_pixels * wpp; w += 256u) {
+        atomicStore(&sh_masks[w], 0u);
+    }
     let large = frame.params.large_offset + view * frame.params.triangle_count;
     let counting = frame.params.loop_budget != 0u;
 
