@@ -108,15 +108,44 @@ fn setup(view: u32, t: u32) -> Setup {
     return Setup(vec4<i32>(a, b), vec4<i32>(c, flags, 0), box);
 }
 
-// Sets bits lo..=hi of a pixel's mask words.
-fn set_bits(words: ptr<function, array<u32, 8>>, lo: u32, hi: u32) {
+// A pixel's mask bits, as a lane collects them: bits 0–31 in `first` (F ≤ 5 needs no more, and
+// a scalar stays in a register where an indexed array would go to slower memory on most GPUs),
+// bits 32k to 32k + 31 in `rest[k − 1]`.
+struct MaskWords {
+    first: u32,
+    rest: array<u32, 7>,
+}
+
+fn set_bit(m: ptr<function, MaskWords>, bit: u32) {
+    if bit < 32u {
+        (*m).first |= 1u << bit;
+    } else {
+        (*m).rest[bit / 32u - 1u] |= 1u << (bit % 32u);
+    }
+}
+
+// Sets bits lo..=hi.
+fn set_bits(m: ptr<function, MaskWords>, lo: u32, hi: u32) {
     var b = lo;
     while b <= hi {
         let end = min(hi, b / 32u * 32u + 31u);
         let n = end - b + 1u;
-        (*words)[b / 32u] |= select((1u << n) - 1u, 0xffffffffu, n == 32u) << (b % 32u);
+        let bits = select((1u << n) - 1u, 0xffffffffu, n == 32u) << (b % 32u);
+        if b < 32u {
+            (*m).first |= bits;
+        } else {
+            (*m).rest[b / 32u - 1u] |= bits;
+        }
         b = end + 1u;
     }
+}
+
+// Word w of the mask.
+fn mask_word(m: MaskWords, w: u32) -> u32 {
+    if w == 0u {
+        return m.first;
+    }
+    return m.rest[w - 1u];
 }
 
 // E + bias > 0 for 64-bit E: E ≥ 0 with the top-left bias, E > 0 without.
@@ -201,7 +230,7 @@ fn main(
     let large = frame.params.large_offset + view * frame.params.triangle_count;
     let counting = frame.params.loop_budget != 0u;
 
-    var words = array<u32, 8>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    var words = MaskWords(0u, array<u32, 7>(0u, 0u, 0u, 0u, 0u, 0u, 0u));
     var iterations = 0u;
     for (var chunk = 0u; chunk < total; chunk += CHUNK) {
         let k = chunk + lid;
@@ -272,7 +301,7 @@ fn main(
                     for (var sx = c0; sx <= c1; sx++) {
                         if all(e > vec3<i32>(0)) {
                             let bit = bit_row + u32(sx - pc0);
-                            words[bit / 32u] |= 1u << (bit % 32u);
+                            set_bit(&words, bit);
                         }
                         e += step_x;
                     }
@@ -325,7 +354,7 @@ fn main(
                         e[2] = i64_add(e[2], step_x[2]);
                         if inside {
                             let bit = bit_row + u32(sx - pc0);
-                            words[bit / 32u] |= 1u << (bit % 32u);
+                            set_bit(&words, bit);
                         }
                     }
                     row_e[0] = i64_add(row_e[0], step_y[0]);
@@ -342,8 +371,9 @@ fn main(
     // OR the lanes' bits, then one lane writes the pixel.
     if in_image {
         for (var w = 0u; w < wpp; w++) {
-            if words[w] != 0u {
-                atomicOr(&sh_masks[pixel * wpp + w], words[w]);
+            let word = mask_word(words, w);
+            if word != 0u {
+                atomicOr(&sh_masks[pixel * wpp + w], word);
             }
         }
     }
