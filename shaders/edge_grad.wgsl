@@ -32,11 +32,12 @@
 // Liang–Barsky clipping to the pixel, ½ weight for a segment lying on a pixel border, then the
 // visible parts: every triangle listed in the pixel's tile (and in its view's large list) gives
 // the parameter interval where the point just outside the edge (+ε·outward) is inside it, and the
-// closed form is applied to the complement of their union. The CPU sorts the intervals; here the
-// union is swept in increasing order without sorting (`visible_weights`), so the gaps are summed
-// in the same order whatever the order of the tile lists or of the lanes' appends:
-// deterministic. A pixel's intervals are gathered in workgroup memory (64) and recomputed from
-// the lists when there are more; lane 0 sweeps them and writes the item's results.
+// closed form is applied to the complement of their union. As on the CPU, the intervals are
+// sorted by start (`sort_intervals`, the lanes ranking them in workgroup memory) and merged in one
+// pass (`merge_sorted`, lane 0, which writes the item's results), so the gaps are summed in
+// increasing order whatever the order of the tile lists or of the lanes' appends: deterministic.
+// A pixel with more than SHARED (64) intervals is swept from the lists instead
+// (`visible_weights`, same gaps, O(n · list length) on lane 0 alone: slow, and rare).
 //
 // Precision: the CPU computes in f64. Here every clip parameter, occlusion bound and gap length
 // is computed in float-float arithmetic (shared/ff.wgsl, ~44 bits) from differences of the f32
@@ -109,8 +110,8 @@ var<workgroup> wg_parts: u32;
 // hi ≤ lo. A pixel's non-empty intervals as the lanes found them, then sorted by start.
 var<workgroup> wg_intervals: array<vec4<f32>, SHARED>;
 var<workgroup> wg_sorted: array<vec4<f32>, SHARED>;
-// Running counts over the workgroup's pixels: intervals found, and intervals that cover the whole
-// segment in their pixel (which is then hidden). A pixel's scan adds to them; every lane reads
+// Running counts over the workgroup's pixels (from 0: workgroup memory starts zeroed): intervals
+// found, and intervals that cover the whole segment in their pixel (which is then hidden). A pixel's scan adds to them; every lane reads
 // them between the two barriers that follow (the next pixel's scan starts after the second), and
 // lane 0 merges `wg_sorted` before it reaches the next pixel's first barrier, after which the
 // lanes sort into it again.
