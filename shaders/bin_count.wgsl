@@ -35,9 +35,9 @@ fn main(
     if i >= n * frame.params.view_count {
         return;
     }
-    let orientation = face_orientation(i);
+    let b = binned_triangle(i);
+    let orientation = face_orientation(b);
     classes[frame.params.orient_offset + i] = orientation;
-    let b = binned_triangle(i, orientation);
     if b.tiles.culled {
         atomicAdd(&status[status_index(b.view, STATUS_CULLED)], 1u);
         return;
@@ -50,9 +50,10 @@ fn main(
         let k = atomicAdd(&status[status_index(b.view, STATUS_LARGE)], 1u);
         let entry = frame.params.large_offset + b.view * n + k;
         bins[entry] = b.t;
+        let record = binned_record(b, orientation);
         let at = 2u * (entry - frame.params.bin_list_offset);
-        occluders[at] = b.record[0];
-        occluders[at + 1u] = b.record[1];
+        occluders[at] = record[0];
+        occluders[at + 1u] = record[1];
         return;
     }
     let v = frame.views[b.view];

@@ -35,11 +35,12 @@ fn main(
     if i >= frame.params.triangle_count * frame.params.view_count {
         return;
     }
-    let b = binned_triangle(i, classes[frame.params.orient_offset + i]);
+    let b = binned_triangle(i);
     let r = b.tiles.range;
     if r.x < 0 || is_large(r) {
         return;
     }
+    let record = binned_record(b, classes[frame.params.orient_offset + i]);
     let v = frame.views[b.view];
     for (var ty = r.y; ty <= r.w; ty++) {
         let row = v.tile_offset + u32(ty) * v.raster.tiles_x;
@@ -48,8 +49,8 @@ fn main(
             let slot = bins[tile] + atomicSub(&counts[tile], 1u) - 1u;
             if slot < frame.params.bin_capacity {
                 bins[frame.params.bin_list_offset + slot] = b.t;
-                occluders[2u * slot] = b.record[0];
-                occluders[2u * slot + 1u] = b.record[1];
+                occluders[2u * slot] = record[0];
+                occluders[2u * slot + 1u] = record[1];
             }
         }
     }
