@@ -213,12 +213,13 @@ fn main(
     }
     let range = workgroupUniformLoad(&sh_range);
     let total = range.y + range.z;
+    // This pixel's first word in `masks`.
+    let mask_base = (vw.pixel_offset + py * r.width + px) * wpp;
     if total == 0u {
         // No triangle touches the tile (most tiles of a mesh that fills part of the view).
         if in_image && lane == 0u {
-            let base = (vw.pixel_offset + py * r.width + px) * wpp;
             for (var w = 0u; w < wpp; w++) {
-                masks[base + w] = 0u;
+                masks[mask_base + w] = 0u;
             }
         }
         return;
@@ -379,9 +380,8 @@ fn main(
     }
     workgroupBarrier();
     if in_image && lane == 0u {
-        let base = (vw.pixel_offset + py * r.width + px) * wpp;
         for (var w = 0u; w < wpp; w++) {
-            masks[base + w] = atomicLoad(&sh_masks[pixel * wpp + w]);
+            masks[mask_base + w] = atomicLoad(&sh_masks[pixel * wpp + w]);
         }
     }
 }

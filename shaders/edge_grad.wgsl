@@ -405,12 +405,12 @@ fn main(
     @builtin(local_invocation_index) lane: u32,
 ) {
     // Which of the workgroup's items cross a pixel; the others get zero partials here.
-    if lane == 0u {
-        wg_parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
-    }
     if lane < ITEMS {
         let item = linear_workgroup_index(workgroup_id, num_workgroups) * ITEMS + lane;
         let parts = max(atomicLoad(&status[STATUS_PARTS]), 1u);
+        if lane == 0u {
+            wg_parts = parts;
+        }
         var listed = NO_ITEM;
         var large = 0u;
         if item < atomicLoad(&status[STATUS_CANDIDATE_TOTAL]) * parts {

@@ -303,7 +303,7 @@ enum Dispatch<'a> {
     /// `invocations` work items, `per_workgroup` to a workgroup, as a 2D grid when needed
     /// ([`GpuContext::dispatch_1d`]).
     Linear { invocations: u32, per_workgroup: u32 },
-    /// This many workgroups, as a 2D grid when needed ([`super::workgroup_grid`]).
+    /// This many workgroups, as a 2D grid when needed (one work item per workgroup).
     Workgroups(u32),
     /// The grid in this buffer (written by an earlier stage of the same submission).
     Indirect(&'a wgpu::Buffer),
@@ -347,10 +347,7 @@ impl<'e> StagePasses<'e> {
                     ctx.dispatch_1d(pass, invocations, per_workgroup)?;
                 }
                 Dispatch::Workgroups(count) => {
-                    let grid = super::workgroup_grid(count, ctx.limits().max_compute_workgroups_per_dimension)?;
-                    if grid[0] > 0 {
-                        pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
-                    }
+                    ctx.dispatch_1d(pass, count, 1)?;
                 }
                 Dispatch::Indirect(arguments) => pass.dispatch_workgroups_indirect(arguments, 0),
             }
