@@ -471,26 +471,35 @@ impl PoseFit {
         let pose = self.pose();
         let (vertices, cache) = self.model.skin_with_cache(&pose)?;
         self.mesh.set_positions(&vertices)?;
-        let frame = self.renderer.render(&self.mesh, &self.cameras)?;
-        let mut silhouette = 0.0;
-        let mut d_images = Vec::with_capacity(self.targets.len());
-        for ((image, target), blur) in frame.images().iter().zip(&self.blurred_targets).zip(&self.blurs) {
-            let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
-            silhouette += value * self.pixel_weight;
-            for g in grad.data_mut() {
-                *g = (f64::from(*g) * self.pixel_weight) as f32;
+        // The self-intersection check is single-threaded and independent of the images: it runs
+        // beside the render + backward.
+        let (checker, lambda) = (&mut self.checker, self.lambda);
+        let (silhouette_pass, intersection) = rayon::join(
+            || -> Result<(f64, Vec<Vec3>)> {
+                let frame = self.renderer.render(&self.mesh, &self.cameras)?;
+                let mut silhouette = 0.0;
+                let mut d_images = Vec::with_capacity(self.targets.len());
+                for ((image, target), blur) in frame.images().iter().zip(&self.blurred_targets).zip(&self.blurs) {
+                    let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
+                    silhouette += value * self.pixel_weight;
+                    for g in grad.data_mut() {
+                        *g = (f64::from(*g) * self.pixel_weight) as f32;
+                    }
+                    d_images.push(grad);
+                }
+                Ok((silhouette, self.renderer.backward(&frame, &d_images)?))
+            },
+            || if lambda > 0.0 { checker.check(&vertices).map(Some) } else { Ok(None) },
+        );
+        let (silhouette, mut d_vertices) = silhouette_pass?;
+        let (penalty, surrogate) = match intersection? {
+            Some(result) => {
+                for (g, s) in d_vertices.iter_mut().zip(&result.grad) {
+                    *g += lambda * *s;
+                }
+                (result.penalty, result.surrogate)
             }
-            d_images.push(grad);
-        }
-        let mut d_vertices = self.renderer.backward(&frame, &d_images)?;
-        let (penalty, surrogate) = if self.lambda > 0.0 {
-            let result = self.checker.check(&vertices)?;
-            for (g, s) in d_vertices.iter_mut().zip(&result.grad) {
-                *g += self.lambda * *s;
-            }
-            (result.penalty, result.surrogate)
-        } else {
-            (0.0, 0.0)
+            None => (0.0, 0.0),
         };
         let d_pose = self.model.backward(&cache, &d_vertices)?;
         let mut grads = d_pose.to_params();
