@@ -1,0 +1,47 @@
+//! One step of the pose fit (`fit::PoseFit::step`) on the built-in figure, the workload of the
+//! `fit_pose` example: skinning, forward + blurred loss + backward over 4 views at 64², F = 4, the
+//! self-intersection check (which runs beside the render), the skinning backward and an Adam
+//! step, on the CPU backend. The self-intersection check alone is measured beside it.
+//!
+//! The targets are the silhouettes of the random pose of seed 1; the fit starts at the rest pose
+//! and keeps stepping through criterion's iterations, so the figures are those of a fit under way.
+
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use diffsil::figure::{builtin_figure, joint_kinds};
+use diffsil::fit::{framing_cameras, random_pose, PoseFit};
+use diffsil::self_intersection::SelfIntersectionChecker;
+use diffsil::skin::Pose;
+use diffsil::{Mesh, RenderSettings, Renderer};
+
+const VIEWS: u32 = 4;
+const RESOLUTION: u32 = 64;
+
+fn pose_fit(c: &mut Criterion) {
+    let model = builtin_figure();
+    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let truth = random_pose(&limits, 30f32.to_radians(), 1);
+    let truth_vertices = model.skin(&truth).expect("the figure skins");
+    let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone()).expect("valid mesh");
+    let cameras = framing_cameras(&model.mesh, VIEWS, RESOLUTION);
+    let mut renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
+    let targets = renderer.render(&truth_mesh, &cameras).expect("targets render").images().to_vec();
+    let rest = Pose::rest(model.joint_count());
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).expect("valid fit");
+    fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
+
+    let mut group = c.benchmark_group("pose_fit/builtin figure");
+    group.sample_size(20).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
+    group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
+        b.iter(|| fit.step().expect("the step runs"))
+    });
+    let mut checker = SelfIntersectionChecker::new(model.mesh.topology());
+    group.bench_function("self-intersection check", |b| {
+        b.iter(|| checker.check(&truth_vertices).expect("the check runs").surrogate)
+    });
+    group.finish();
+}
+
+criterion_group!(benches, pose_fit);
+criterion_main!(benches);
