@@ -19,12 +19,19 @@ fn scene(resolution: u32, seed: u64) -> (SkinnedMesh, Vec<Camera>, Vec<Image>, V
     (model, cameras, targets, truth_vertices)
 }
 
-#[test]
-fn a_short_fit_reduces_the_silhouette_error_and_the_vertex_error() {
-    let (model, cameras, targets, truth_vertices) = scene(48, 7);
+/// A fit of [`scene`] from the rest pose (learning rate 0.02, λ = 1e-7, CPU), the model, and the
+/// true vertices.
+fn fit_from_rest(resolution: u32, seed: u64) -> (PoseFit, SkinnedMesh, Vec<Vec3>) {
+    let (model, cameras, targets, truth_vertices) = scene(resolution, seed);
     let renderer = Renderer::new(RenderSettings::default()).unwrap();
     let rest = Pose::rest(model.joint_count());
-    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).unwrap();
+    let fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).unwrap();
+    (fit, model, truth_vertices)
+}
+
+#[test]
+fn a_short_fit_reduces_the_silhouette_error_and_the_vertex_error() {
+    let (mut fit, _, truth_vertices) = fit_from_rest(48, 7);
     let error_before = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     let first = fit.step().unwrap();
     let mut last = first;
@@ -38,10 +45,7 @@ fn a_short_fit_reduces_the_silhouette_error_and_the_vertex_error() {
 
 #[test]
 fn the_method_runs_its_schedule_and_lowers_the_error() {
-    let (model, cameras, targets, truth_vertices) = scene(32, 3);
-    let renderer = Renderer::new(RenderSettings::default()).unwrap();
-    let rest = Pose::rest(model.joint_count());
-    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).unwrap();
+    let (mut fit, model, truth_vertices) = fit_from_rest(32, 3);
     let error_before = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     let energy_before = fit.energy().unwrap();
     let hypotheses = stride_hypotheses(&model, 0.3).unwrap();
