@@ -329,8 +329,6 @@ fn draw_direct(
     masks: &mut [u32],
 ) -> TriangleSummary {
     let f = params.supersample as i64;
-    let wpp = params.words_per_pixel as usize;
-    let row_words = params.width as usize * wpp;
     let step = 2 * pass.h;
     {
         let (drawn, summary) = triangles
@@ -338,7 +336,7 @@ fn draw_direct(
             .fold(
                 || (vec![0u32; masks.len()], TriangleSummary::default()),
                 |(mut mask, summary), chunk| {
-                    let mut band = Band { params, rows: &mut mask, row_words, wpp, pixel_row0: 0 };
+                    let mut band = Band::new(params, &mut mask, 0);
                     let full = (0, params.height as i64 * f - 1);
                     let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
                     let chunk_summary = match Shift::of(step) {
@@ -368,8 +366,7 @@ fn draw_in_bands(
     masks: &mut [u32],
 ) -> TriangleSummary {
     let f = params.supersample as i64;
-    let wpp = params.words_per_pixel as usize;
-    let row_words = params.width as usize * wpp;
+    let row_words = params.width as usize * params.words_per_pixel as usize;
     let step = 2 * pass.h;
     let band_rows = band_height(params.height, triangles.len());
     let bands = params.height.div_ceil(band_rows) as usize;
@@ -397,7 +394,7 @@ fn draw_in_bands(
         rows.fill(0);
         let pixel_row0 = band_index as i64 * band_rows as i64;
         let band_sample_rows = (pixel_row0 * f, (pixel_row0 + band_rows as i64).min(params.height as i64) * f - 1);
-        let mut band = Band { params, rows, row_words, wpp, pixel_row0 };
+        let mut band = Band::new(params, rows, pixel_row0);
         for setup in tasks.iter().flat_map(|t| &t.0[band_index]) {
             setup.draw(params, band_sample_rows, &mut band);
         }
@@ -433,7 +430,13 @@ struct Band<'a> {
     pixel_row0: i64,
 }
 
-impl Band<'_> {
+impl<'a> Band<'a> {
+    /// The band whose first pixel row is `pixel_row0`, its mask rows `rows`.
+    fn new(params: &'a RasterParams, rows: &'a mut [u32], pixel_row0: i64) -> Band<'a> {
+        let wpp = params.words_per_pixel as usize;
+        Band { params, rows, row_words: params.width as usize * wpp, wpp, pixel_row0 }
+    }
+
     /// Sets samples `span.0..=span.1` of sample row `sy`, a pixel's worth of bits at a time.
     #[inline]
     fn set_span(&mut self, sy: i64, span: (i64, i64)) {
