@@ -1,7 +1,9 @@
 //! One step of the pose fit (`fit::PoseFit::step`) on the built-in figure, the workload of the
 //! `fit_pose` example: skinning, forward + blurred loss + backward over 4 views at 64², F = 4, the
 //! self-intersection check (which runs beside the render), the skinning backward and an Adam
-//! step, on the CPU backend. The self-intersection check alone is measured beside it.
+//! step, on the CPU backend. Two of its parts are measured alone beside it: the renderer's
+//! forward + loss + backward of the 4 views (`Renderer::squared_error_step`, rest pose against
+//! the targets), and the self-intersection check.
 //!
 //! The targets are the silhouettes of the random pose of seed 1; the fit starts at the rest pose
 //! and keeps stepping through criterion's iterations, so the figures are those of a fit under way.
@@ -13,7 +15,7 @@ use diffsil::figure::{builtin_figure, joint_kinds};
 use diffsil::fit::{framing_cameras, random_pose, PoseFit};
 use diffsil::self_intersection::SelfIntersectionChecker;
 use diffsil::skin::Pose;
-use diffsil::{Mesh, RenderSettings, Renderer};
+use diffsil::{Mesh, RenderSettings, Renderer, Targets};
 
 const VIEWS: u32 = 4;
 const RESOLUTION: u32 = 64;
@@ -28,6 +30,9 @@ fn pose_fit(c: &mut Criterion) {
     let mut renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
     let targets = renderer.render(&truth_mesh, &cameras).expect("targets render").images().to_vec();
     let rest = Pose::rest(model.joint_count());
+    let mut views = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
+    let view_targets = Targets::new(targets.clone()).expect("valid targets");
+    let view_cameras = cameras.clone();
     let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).expect("valid fit");
     fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
 
@@ -35,6 +40,9 @@ fn pose_fit(c: &mut Criterion) {
     group.sample_size(20).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
     group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
         b.iter(|| fit.step().expect("the step runs"))
+    });
+    group.bench_function(format!("render + loss + backward ({VIEWS} views at {RESOLUTION}²)"), |b| {
+        b.iter(|| views.squared_error_step(&model.mesh, &view_cameras, &view_targets).expect("the step runs").loss)
     });
     let mut checker = SelfIntersectionChecker::new(model.mesh.topology());
     group.bench_function("self-intersection check", |b| {
