@@ -314,24 +314,29 @@ impl Renderer {
     }
 
     fn forward(&mut self, topology: Arc<Topology>, screens: Vec<CpuView>, source: Source) -> Frame {
-        let mut images = Vec::with_capacity(screens.len());
-        let mut stats = Vec::with_capacity(screens.len());
-        let mut views = Vec::with_capacity(screens.len());
-        for (params, screen, snapped) in screens {
-            let snapped = snapped.unwrap_or_else(|| {
-                let mut snapped = vec![[0; 2]; screen.len()];
-                cpu::project::snap(&params, &screen, &mut snapped);
-                snapped
-            });
-            let (state, image) = cpu::forward_view(params, screen, snapped, &topology);
-            stats.push(RenderStats {
+        // The views are independent: they run side by side (each parallel inside too), and come
+        // back in order.
+        let rendered: Vec<(cpu::ViewState, Image)> = screens
+            .into_par_iter()
+            .map(|(params, screen, snapped)| {
+                let snapped = snapped.unwrap_or_else(|| {
+                    let mut snapped = vec![[0; 2]; screen.len()];
+                    cpu::project::snap(&params, &screen, &mut snapped);
+                    snapped
+                });
+                let (state, image) = cpu::forward_view(params, screen, snapped, &topology);
+                (state, Image::from_vec(params.width, params.height, image).expect("image sized by the raster"))
+            })
+            .collect();
+        let stats = rendered
+            .iter()
+            .map(|(state, _)| RenderStats {
                 culled_triangles: state.culled_triangles,
                 candidate_edges: state.candidates.len() as u32,
                 tile_size: state.params.tile_size,
-            });
-            images.push(Image::from_vec(params.width, params.height, image).expect("image sized by the raster"));
-            views.push(state);
-        }
+            })
+            .collect();
+        let (views, images) = rendered.into_iter().unzip();
         Frame { images, stats, topology, source, state: FrameState::Cpu(views) }
     }
 
@@ -353,12 +358,13 @@ impl Renderer {
         self.last_backward.clear();
         match (&mut self.engine, &frame.state) {
             (Engine::Cpu, FrameState::Cpu(views)) => {
-                let mut out = Vec::with_capacity(d_images.len());
-                for (state, d_image) in views.iter().zip(d_images) {
-                    let (grads, stats) = cpu::backward_view(state, &frame.topology, d_image.data());
-                    self.last_backward.push(stats);
-                    out.push(grads);
-                }
+                // Views side by side, as in the forward.
+                let (out, stats): (Vec<Vec<Vec2>>, Vec<BackwardStats>) = views
+                    .par_iter()
+                    .zip(d_images)
+                    .map(|(state, d_image)| cpu::backward_view(state, &frame.topology, d_image.data()))
+                    .unzip();
+                self.last_backward = stats;
                 Ok(out)
             }
             (Engine::Gpu(gpu), FrameState::Gpu { frame: gpu_frame, params, screens }) => {

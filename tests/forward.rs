@@ -215,3 +215,29 @@ fn deterministic_whatever_the_thread_count() {
         assert!(in_pool(n) == one, "{n} threads gave different bits from 1 thread");
     }
 }
+
+/// A frame of several views (of different sizes) holds, view by view and bit for bit, what
+/// one-view frames give: the images, and the screen-space gradients of the backward. The CPU
+/// backend runs the views side by side; this pins their order.
+#[test]
+fn views_of_one_frame_equal_one_view_frames() {
+    let mesh = diffsil::shapes::icosphere(3);
+    let mut cameras = scenes::orbit_cameras(3, 0.4, 40, 32);
+    cameras.push(scenes::orbit_cameras(1, 2.0, 24, 36)[0]);
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let d_image = |c: &Camera| {
+        let data = (0..c.width * c.height).map(|i| ((i * 37 % 101) as f32 - 50.0) / 50.0).collect();
+        Image::from_vec(c.width, c.height, data).unwrap()
+    };
+    let frame = renderer.render(&mesh, &cameras).unwrap();
+    let d_images: Vec<Image> = cameras.iter().map(d_image).collect();
+    let grads = renderer.backward_screen(&frame, &d_images).unwrap();
+    assert_eq!(frame.images().len(), cameras.len());
+    for (k, camera) in cameras.iter().enumerate() {
+        let single = renderer.render(&mesh, &[*camera]).unwrap();
+        assert_eq!(single.images()[0], frame.images()[k], "image of view {k}");
+        let single_grads = renderer.backward_screen(&single, &[d_image(camera)]).unwrap();
+        assert_eq!(single_grads[0], grads[k], "screen gradients of view {k}");
+        assert!(grads[k].iter().any(|g| *g != Vec2::ZERO), "view {k} has a gradient");
+    }
+}
