@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use diffsil::figure::{builtin_figure, joint_kinds};
+use diffsil::figure::{builtin_figure, random_pose_limits};
 use diffsil::fit::{framing_cameras, random_pose, PoseFit};
 use diffsil::self_intersection::SelfIntersectionChecker;
 use diffsil::skin::Pose;
@@ -22,7 +22,7 @@ const RESOLUTION: u32 = 64;
 
 fn pose_fit(c: &mut Criterion) {
     let model = builtin_figure();
-    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let limits = random_pose_limits(&model.skeleton);
     let truth = random_pose(&limits, 30f32.to_radians(), 1);
     let truth_vertices = model.skin(&truth).expect("the figure skins");
     let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone()).expect("valid mesh");

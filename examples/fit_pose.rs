@@ -19,7 +19,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use diffsil::figure::{builtin_figure, joint_kinds};
+use diffsil::figure::{builtin_figure, random_pose_limits};
 use diffsil::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
 use diffsil::gltf_io::{load_gltf, Model};
 use diffsil::gpu::GpuOptions;
@@ -158,7 +158,7 @@ struct Outcome {
 
 /// Fits one seed; writes pictures when `pictures` is set.
 fn fit(model: &SkinnedMesh, o: &Options, pictures: bool, quiet: bool) -> Result<Outcome, Box<dyn std::error::Error>> {
-    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let limits = random_pose_limits(&model.skeleton);
     let truth = random_pose(&limits, 30f32.to_radians(), o.seed);
     let truth_vertices = model.skin(&truth)?;
     // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).

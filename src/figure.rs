@@ -161,6 +161,12 @@ pub fn joint_kinds(skeleton: &Skeleton) -> Vec<JointKind> {
         .collect()
 }
 
+/// Every joint's [`JointKind::random_pose_limit`], in joint order: the `limits` of
+/// [`crate::fit::random_pose`] for this skeleton.
+pub fn random_pose_limits(skeleton: &Skeleton) -> Vec<f32> {
+    joint_kinds(skeleton).iter().map(|k| k.random_pose_limit()).collect()
+}
+
 /// Indices of the joints of kind [`JointKind::Limb`] (arms, legs, hands, feet).
 pub fn limb_joints(figure: &SkinnedMesh) -> Vec<usize> {
     joint_kinds(&figure.skeleton).iter().enumerate().filter(|(_, k)| **k == JointKind::Limb).map(|(j, _)| j).collect()

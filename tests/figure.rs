@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 use std::sync::OnceLock;
 
-use diffsil::figure::{builtin_figure, joint_kinds, limb_joints, JointKind, JOINT_NAMES};
+use diffsil::figure::{builtin_figure, joint_kinds, limb_joints, random_pose_limits, JointKind, JOINT_NAMES};
 use diffsil::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, RenderSettings, Renderer, Vec3};
 use glam::{Mat4, Quat};
@@ -126,6 +126,11 @@ fn joint_kinds_drive_random_pose_limits() {
     assert_eq!(JointKind::Spine.random_pose_limit(), 0.25);
     assert_eq!(JointKind::Neck.random_pose_limit(), 0.25);
     assert_eq!(JointKind::Head.random_pose_limit(), 0.25);
+    let limits = random_pose_limits(&figure().skeleton);
+    assert_eq!(limits.len(), figure().joint_count());
+    assert_eq!(limits[joint("left_knee")], 0.5);
+    assert_eq!(limits[joint("spine2")], 0.25);
+    assert_eq!(limits[figure().skeleton.parents.iter().position(Option::is_none).unwrap()], 0.0);
 }
 
 #[test]

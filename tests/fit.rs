@@ -1,7 +1,7 @@
 //! Pose fitting end to end on the built-in figure: a short fit lowers the error, the
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
-use diffsil::figure::{builtin_figure, joint_kinds};
+use diffsil::figure::{builtin_figure, random_pose_limits};
 use diffsil::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
 use diffsil::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
@@ -9,7 +9,7 @@ use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
 /// The built-in figure, cameras around it and the silhouettes of a random pose (seed `seed`).
 fn scene(resolution: u32, seed: u64) -> (SkinnedMesh, Vec<Camera>, Vec<Image>, Vec<Vec3>) {
     let model = builtin_figure();
-    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let limits = random_pose_limits(&model.skeleton);
     let truth = random_pose(&limits, 30f32.to_radians(), seed);
     let truth_vertices = model.skin(&truth).unwrap();
     let cameras = framing_cameras(&model.mesh, 4, resolution);
@@ -67,14 +67,21 @@ fn the_method_runs_its_schedule_and_lowers_the_error() {
     assert!(error_after < 0.5 * error_before, "per-vertex error {error_before} → {error_after} m");
 }
 
-#[test]
-fn energy_is_zero_at_the_truth_and_blur_is_validated() {
+/// The built-in figure, its random pose of seed 5, and that pose's silhouettes in 2 views at 24²,
+/// with the renderer that drew them.
+fn truth_in_two_views() -> (SkinnedMesh, Pose, Vec<Camera>, Vec<Image>, Renderer) {
     let model = builtin_figure();
-    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
+    let limits = random_pose_limits(&model.skeleton);
     let truth = random_pose(&limits, 30f32.to_radians(), 5);
     let cameras = framing_cameras(&model.mesh, 2, 24);
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
     let targets = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
+    (model, truth, cameras, targets, renderer)
+}
+
+#[test]
+fn energy_is_zero_at_the_truth_and_blur_is_validated() {
+    let (model, truth, cameras, targets, renderer) = truth_in_two_views();
     let mut fit = PoseFit::new(model, cameras, targets, renderer, &truth, 0.02, 0.0).unwrap();
     assert_eq!(fit.energy().unwrap(), 0.0);
     fit.set_blur(0.05).unwrap();
@@ -90,12 +97,7 @@ fn energy_is_zero_at_the_truth_and_blur_is_validated() {
 
 #[test]
 fn the_pose_prior_adds_to_the_energy_and_pulls_offsets_to_rest() {
-    let model = builtin_figure();
-    let limits: Vec<f32> = joint_kinds(&model.skeleton).iter().map(|k| k.random_pose_limit()).collect();
-    let truth = random_pose(&limits, 30f32.to_radians(), 5);
-    let cameras = framing_cameras(&model.mesh, 2, 24);
-    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
-    let targets = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
+    let (model, truth, cameras, targets, renderer) = truth_in_two_views();
     let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &truth, 0.01, 0.0).unwrap();
     assert!(matches!(fit.set_pose_prior(-1.0), Err(Error::InvalidSettings(_))));
     assert!(fit.set_pose_prior(f32::NAN).is_err());
