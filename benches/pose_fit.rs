@@ -11,10 +11,10 @@
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use diffsil::figure::{builtin_figure, random_pose_limits};
-use diffsil::fit::{framing_cameras, random_pose, PoseFit};
-use diffsil::self_intersection::SelfIntersectionChecker;
-use diffsil::skin::Pose;
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{framing_cameras, random_pose, PoseFit};
+use diffsil::pose::self_intersection::SelfIntersectionChecker;
+use diffsil::pose::skin::Pose;
 use diffsil::{Mesh, RenderSettings, Renderer, Targets};
 
 const VIEWS: u32 = 4;

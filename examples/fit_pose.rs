@@ -8,7 +8,7 @@
 //!
 //! A random plausible ground-truth pose is drawn from the seed, its silhouettes rendered from
 //! `--views` cameras around the model, and the pose fitted with
-//! `E = E_sl + λ·E_spt + μ·E_prior` and Adam, by the method of `diffsil::fit` (`PoseFit::run`):
+//! `E = E_sl + λ·E_spt + μ·E_prior` and Adam, by the method of `diffsil::pose::fit` (`PoseFit::run`):
 //! three starting poses (rest, and the legs in a stride each way) tried for a few steps on
 //! blurred silhouettes, the lowest-energy one kept and refined coarse to fine, the blur shrinking
 //! to none, with a zero-mean prior on the joint offsets. `--plain` fits from the rest pose without
@@ -19,11 +19,11 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use diffsil::figure::{builtin_figure, random_pose_limits};
-use diffsil::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
-use diffsil::gltf_io::{load_gltf, Model};
 use diffsil::gpu::GpuOptions;
-use diffsil::skin::{Pose, SkinnedMesh};
+use diffsil::io::gltf::{load_gltf, Model};
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::Backend;
 use diffsil::{Image, RenderSettings, Renderer};
 
@@ -48,7 +48,7 @@ options:
   --ablation N       run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
   -h, --help         this text
 
-method (diffsil::fit, PoseFit::run): E = E_sl + λ·E_spt + μ·E_prior, where E_sl is the mean
+method (diffsil::pose::fit, PoseFit::run): E = E_sl + λ·E_spt + μ·E_prior, where E_sl is the mean
 squared error over all pixels of all views between the rendered and target silhouettes, both
 blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on the joint offsets.
 Each of the three starting poses runs 1/10 of the steps with a blur of 6% of the image height;

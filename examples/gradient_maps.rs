@@ -18,7 +18,7 @@
 //!
 //! For each motion the derivative of every pixel, `∂I(i,j)/∂t = Σ_k ∂I(i,j)/∂p_k · v_k`, is computed
 //! (a) from diffsil's analytic backward ([`analytic_maps`]) and (b) by central differences of
-//! [`diffsil::oracle::exact_coverage_f64`] ([`finite_difference_map`]). Pictures go to `--out`: a
+//! [`diffsil::reference::oracle::exact_coverage_f64`] ([`finite_difference_map`]). Pictures go to `--out`: a
 //! sheet `gradient_maps.png` (rows: motions; columns: silhouette, analytic, finite difference,
 //! difference, on one blue–white–red scale per row) and each map as its own PNG. The cosine
 //! similarity and relative error of (a) against (b) are printed per motion.
@@ -30,7 +30,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use diffsil::gpu::GpuOptions;
-use diffsil::{oracle, shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec3};
+use diffsil::reference::oracle;
+use diffsil::{shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec3};
 use glam::{DVec2, Vec2};
 
 /// `--help` text.
@@ -668,7 +669,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     };
     let (mesh, name) = match &o.mesh {
         Some(path) => (
-            diffsil::gltf_io::load_mesh(path)?,
+            diffsil::io::gltf::load_mesh(path)?,
             path.file_name().map_or("mesh".into(), |s| s.to_string_lossy().into_owned()),
         ),
         None => (builtin_mesh(), "built-in blob".to_string()),

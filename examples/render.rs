@@ -228,7 +228,7 @@ pub fn load(o: &Options) -> Result<(Mesh, String), Box<dyn std::error::Error>> {
             }
         },
     };
-    let mesh = diffsil::gltf_io::load_mesh(&path)?;
+    let mesh = diffsil::io::gltf::load_mesh(&path)?;
     let name = path.file_name().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
     Ok((mesh.normalized(1.0), name))
 }

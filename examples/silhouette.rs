@@ -7,11 +7,12 @@
 //!
 //! With no mesh path it uses a built-in lumpy blob. The loss is `Σ w·I` with fixed random
 //! weights `w`; the analytic gradient along a random direction of vertex motion is compared with
-//! a central difference of the same loss on the exact-area image (`diffsil::oracle`).
+//! a central difference of the same loss on the exact-area image (`diffsil::reference::oracle`).
 
 use std::path::PathBuf;
 
-use diffsil::{oracle, shapes, Camera, Image, RenderSettings, Renderer, Vec3};
+use diffsil::reference::oracle;
+use diffsil::{shapes, Camera, Image, RenderSettings, Renderer, Vec3};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mesh_path: Option<PathBuf> = None;
@@ -48,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("wrote {} ({covered} pixels touched)", out.display());
 
     // Linear loss L = Σ w·I with seeded weights, so ∂L/∂I = w.
-    let mut rng = diffsil::fit::SplitMix64::new(1);
+    let mut rng = diffsil::random::SplitMix64::new(1);
     let mut random = move || rng.uniform() as f64;
     let weights: Vec<f32> = (0..resolution * resolution).map(|_| random() as f32 * 2.0 - 1.0).collect();
     let d_image = Image::from_vec(resolution, resolution, weights.clone())?;

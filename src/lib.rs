@@ -17,7 +17,7 @@
 //! use diffsil::optim::Adam;
 //! use diffsil::{loss, shapes, Camera, Mesh, RenderSettings, Renderer, Vec3};
 //!
-//! // A mesh: built in, or from a file with `diffsil::gltf_io::load_mesh("bunny.obj")?`
+//! // A mesh: built in, or from a file with `diffsil::io::gltf::load_mesh("bunny.obj")?`
 //! // (.obj, .gltf, .glb).
 //! let mesh = shapes::icosphere(2);
 //! // A 64×64 perspective camera at (0, 0, 4) looking at the origin, vertical fov 0.8 rad.
@@ -114,40 +114,36 @@
 //! images, analytic against finite differences, the paper's Fig. 6) and `silhouette` (a quick
 //! gradient check).
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
-pub mod camera;
-pub mod closed_form;
+// Layers, bottom to top: every module imports only from the ones above it in this list.
 pub mod cpu;
+mod engine;
 mod error;
-pub mod figure;
-pub mod fit;
-pub mod gltf_io;
+#[cfg(feature = "gpu")]
 pub mod gpu;
-mod image;
 pub mod io;
-pub mod layout;
 pub mod loss;
-pub mod mesh;
+pub mod mirror;
 pub mod optim;
-pub mod oracle;
+#[cfg(feature = "pose")]
+pub mod pose;
+pub mod random;
+pub mod reference;
 mod render;
-pub mod self_intersection;
-pub mod shapes;
-pub mod skin;
+pub mod scene;
 
-pub use camera::{Camera, Projection, ViewParams};
+pub use engine::StageTiming;
 pub use error::{Error, Result};
-pub use image::Image;
-pub use mesh::{Mesh, Topology};
+pub use mirror::{ViewParams, COORD_LIMIT};
 pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
-
-/// Largest |pixel coordinate| a projected vertex may have; farther vertices are treated like
-/// vertices behind the camera (their triangles are culled). Keeps fixed-point coverage exact in
-/// 32-bit integers on the GPU.
-pub const COORD_LIMIT: f32 = 1_048_576.0;
+pub use scene::camera::{Camera, Projection};
+pub use scene::image::Image;
+pub use scene::mesh::{Mesh, Topology};
+pub use scene::shapes;
 
 /// The README's Rust code, compiled and run by `cargo test` as doctests.
-#[cfg(doctest)]
+#[cfg(all(doctest, feature = "pose"))]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 

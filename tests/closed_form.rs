@@ -33,8 +33,8 @@
 mod common;
 
 use common::fd::{symmetric_pair, Rng};
-use diffsil::closed_form::{clip_parameter, pixel_area_gradient, segment_weights};
-use diffsil::oracle::exact_coverage;
+use diffsil::reference::closed_form::{clip_parameter, pixel_area_gradient, segment_weights};
+use diffsil::reference::oracle::exact_coverage;
 use glam::{DVec2, Vec2};
 
 /// The derivative of the area of pixel (`row`, `col`) on the `α < 0` side of the clipped edge

@@ -3,8 +3,8 @@
 use std::collections::HashMap;
 use std::sync::OnceLock;
 
-use diffsil::figure::{builtin_figure, joint_kinds, limb_joints, random_pose_limits, JointKind, JOINT_NAMES};
-use diffsil::skin::{Pose, SkinnedMesh};
+use diffsil::pose::figure::{builtin_figure, joint_kinds, limb_joints, random_pose_limits, JointKind, JOINT_NAMES};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, RenderSettings, Renderer, Vec3};
 use glam::{Mat4, Quat};
 
@@ -41,7 +41,7 @@ fn posed_world(fig: &SkinnedMesh, offsets: &[Vec3]) -> Vec<Mat4> {
     world
 }
 
-/// Linear blend skinning written out here, independently of `diffsil::skin`.
+/// Linear blend skinning written out here, independently of `diffsil::pose::skin`.
 fn lbs(fig: &SkinnedMesh, offsets: &[Vec3]) -> Vec<Vec3> {
     let skinning: Vec<Mat4> =
         posed_world(fig, offsets).iter().zip(&fig.skeleton.inverse_bind).map(|(g, ibm)| *g * *ibm).collect();

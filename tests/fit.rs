@@ -1,9 +1,9 @@
 //! Pose fitting end to end on the built-in figure: a short fit lowers the error, the
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
-use diffsil::figure::{builtin_figure, random_pose_limits};
-use diffsil::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
-use diffsil::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
+use diffsil::pose::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 /// The built-in figure, cameras around it and the silhouettes of a random pose (seed `seed`).

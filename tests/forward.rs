@@ -5,7 +5,7 @@
 mod common;
 
 use common::scenes::{self, Scene2d};
-use diffsil::oracle::{exact_coverage, exact_image};
+use diffsil::reference::oracle::{exact_coverage, exact_image};
 use diffsil::{Camera, Frame, Image, RenderSettings, Renderer, Vec2, Vec3};
 
 fn settings(supersample: u32) -> RenderSettings {

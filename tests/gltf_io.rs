@@ -1,4 +1,4 @@
-//! Tests of `diffsil::gltf_io`: glTF / GLB loading (static and skinned, welding, joint order),
+//! Tests of `diffsil::io::gltf`: glTF / GLB loading (static and skinned, welding, joint order),
 //! GLB writing and round trips, and clear errors on malformed or unsupported files.
 //!
 //! The tests marked `#[ignore]` read the Khronos sample models in `$DIFFSIL_ASSETS`:
@@ -10,8 +10,8 @@ use files::{temp_dir, write};
 
 use std::path::{Path, PathBuf};
 
-use diffsil::gltf_io::{load_gltf, load_gltf_with_info, load_mesh, save_glb, LoadInfo, Model};
-use diffsil::skin::{JointRest, Skeleton, SkinnedMesh};
+use diffsil::io::gltf::{load_gltf, load_gltf_with_info, load_mesh, save_glb, LoadInfo, Model};
+use diffsil::pose::skin::{JointRest, Skeleton, SkinnedMesh};
 use diffsil::{Error, Mesh, Vec3};
 use glam::{DMat4, DQuat, DVec3, Mat4, Quat};
 

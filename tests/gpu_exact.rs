@@ -12,7 +12,7 @@ mod common;
 
 use common::gpu::gpu_or_skip;
 use diffsil::gpu::{GpuContext, Readback};
-use diffsil::layout::RasterParams;
+use diffsil::mirror::RasterParams;
 
 const SHADER: &str = r#"
 //!include shared/exact.wgsl
@@ -106,7 +106,7 @@ fn run(ctx: &GpuContext, entry: &str, input: &[u32], cases: usize, out_per_case:
     let input_buffer = ctx.storage_buffer_init("input", input).unwrap();
     let output = ctx.storage_buffer("output", (cases * out_per_case * 4) as u64).unwrap();
     // The frame uniform only provides `no_fuse`'s opaque zero to the float-float functions.
-    let frame: Box<diffsil::gpu::stages::FrameUniform> = bytemuck::zeroed_box();
+    let frame: Box<diffsil::mirror::FrameUniform> = bytemuck::zeroed_box();
     let uniform = ctx.uniform_buffer_init("frame", &*frame).unwrap();
     let entries: Vec<(u32, &wgpu::Buffer)> = if entry == "ff_ops" {
         vec![(0, &uniform), (1, &input_buffer), (2, &output)]

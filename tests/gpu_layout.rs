@@ -9,9 +9,9 @@ mod common;
 
 use bytemuck::Pod;
 use common::gpu::gpu_or_skip;
-use diffsil::gpu::stages::{FrameParams, FrameUniform, GpuView, MAX_VIEWS};
 use diffsil::gpu::{GpuContext, Readback};
-use diffsil::layout::{EdgeGrad, RasterParams, ScreenVertex};
+use diffsil::mirror::{EdgeGrad, RasterParams, ScreenVertex};
+use diffsil::mirror::{FrameParams, FrameUniform, GpuView, MAX_VIEWS};
 use diffsil::ViewParams;
 
 /// Distinct words `0x4000_0000 + start + k` (normal f32 values when read as floats), so every

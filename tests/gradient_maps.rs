@@ -12,7 +12,7 @@ mod gradient_maps;
 use std::sync::Arc;
 
 use common::scenes::{self, Scene2d};
-use diffsil::layout::ScreenVertex;
+use diffsil::mirror::ScreenVertex;
 use diffsil::{Image, RenderSettings, Renderer, ScreenView, Topology};
 use glam::DVec2;
 use gradient_maps::*;
@@ -214,6 +214,6 @@ fn bad_command_lines_are_errors_not_panics() {
         let error = parse(args).unwrap_err();
         assert!(error.contains(says), "{args:?}: {error}");
     }
-    let missing = diffsil::gltf_io::load_mesh("no/such/mesh.obj").unwrap_err();
+    let missing = diffsil::io::gltf::load_mesh("no/such/mesh.obj").unwrap_err();
     assert!(missing.to_string().contains("no/such/mesh.obj"), "{missing}");
 }

@@ -1,8 +1,8 @@
-//! Tests of the exact-area coverage oracle (`diffsil::oracle`) against hand-computed areas,
+//! Tests of the exact-area coverage oracle (`diffsil::reference::oracle`) against hand-computed areas,
 //! an independent inclusion–exclusion over convex polygon intersections, and brute-force
 //! point sampling.
 
-use diffsil::oracle::{exact_coverage, exact_image};
+use diffsil::reference::oracle::{exact_coverage, exact_image};
 use glam::Vec2;
 
 // ---------------------------------------------------------------------------------------------

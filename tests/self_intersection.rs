@@ -2,7 +2,7 @@
 //! classification, the surrogate's gradient, and that descending it separates interpenetrating
 //! parts.
 
-use diffsil::self_intersection::{
+use diffsil::pose::self_intersection::{
     self_intersection, triangle_contact, triangles_intersect, RebuildPolicy, SelfIntersection, SelfIntersectionChecker,
     TriangleContact,
 };
@@ -528,8 +528,8 @@ fn empty_and_degenerate_meshes_have_zero_penalty() {
 /// the pose (the surrogate's gradient through the skinning backward) unfolds the elbow.
 #[test]
 fn figure_elbow_folded_into_torso() {
-    use diffsil::figure::builtin_figure;
-    use diffsil::skin::Pose;
+    use diffsil::pose::figure::builtin_figure;
+    use diffsil::pose::skin::Pose;
     let figure = builtin_figure();
     let names = &figure.skeleton.names;
     let joint = |name: &str| names.iter().position(|n| n == name).unwrap();

@@ -2,7 +2,7 @@
 //! f64 reference, the rest pose under the glTF convention, the analytic backward against central
 //! finite differences of that reference, and clear errors on bad input.
 
-use diffsil::skin::{
+use diffsil::pose::skin::{
     rodrigues, rodrigues_derivative, rodrigues_derivative_f64, rodrigues_f64, JointRest, Pose, Skeleton, SkinnedMesh,
 };
 use diffsil::{Error, Mesh};
@@ -644,9 +644,9 @@ fn asset(name: &str) -> std::path::PathBuf {
 }
 
 fn load_skinned(name: &str) -> SkinnedMesh {
-    match diffsil::gltf_io::load_gltf(asset(name)).unwrap() {
-        diffsil::gltf_io::Model::Skinned(skinned) => skinned,
-        diffsil::gltf_io::Model::Static(_) => panic!("{name} loaded without its skin"),
+    match diffsil::io::gltf::load_gltf(asset(name)).unwrap() {
+        diffsil::io::gltf::Model::Skinned(skinned) => skinned,
+        diffsil::io::gltf::Model::Static(_) => panic!("{name} loaded without its skin"),
     }
 }
 
@@ -674,7 +674,7 @@ fn backward_matches_finite_differences_on_rigged_figure() {
 
 #[test]
 fn backward_matches_finite_differences_on_the_builtin_figure() {
-    let figure = diffsil::figure::builtin_figure();
+    let figure = diffsil::pose::figure::builtin_figure();
     // The figure's inverse bind matrices follow the glTF convention: the rest pose is the mesh.
     let rest = figure.skin(&Pose::rest(figure.joint_count())).unwrap();
     let worst = rest.iter().zip(figure.mesh.positions()).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);

@@ -11,7 +11,7 @@
 
 use rayon::prelude::*;
 
-use crate::layout::{RasterParams, ScreenVertex, INVALID_SNAPPED};
+use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED};
 
 /// Per-tile triangle lists in CSR form.
 #[derive(Clone, Debug, Default)]

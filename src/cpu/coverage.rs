@@ -8,8 +8,8 @@
 
 use rayon::prelude::*;
 
-use crate::layout::{RasterParams, INVALID_SNAPPED};
-use crate::mesh::Topology;
+use crate::mirror::{RasterParams, INVALID_SNAPPED};
+use crate::scene::mesh::Topology;
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
 /// (positive area), with its top-left biases. `None` for culled or zero-area triangles.
@@ -611,7 +611,7 @@ impl SnappedTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::layout::ScreenVertex;
+    use crate::mirror::ScreenVertex;
 
     #[test]
     fn floor_div_is_exact() {
@@ -717,7 +717,7 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let sphere = crate::shapes::icosphere(2);
+        let sphere = crate::scene::shapes::icosphere(2);
         let closed = sphere.triangles().to_vec();
         let mut skipped_some = false;
         for case in 0..120 {
@@ -820,7 +820,7 @@ mod tests {
     /// A clipped vertex turns the skip off (the identity needs every triangle).
     #[test]
     fn no_back_face_skip_with_a_clipped_vertex() {
-        let sphere = crate::shapes::icosphere(1);
+        let sphere = crate::scene::shapes::icosphere(1);
         let mut snapped = vec![[5, 5]; sphere.positions().len()];
         assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_some());
         snapped[3] = INVALID_SNAPPED;

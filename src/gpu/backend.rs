@@ -29,29 +29,21 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
-use super::stages::{
-    part_length, status, FrameLayout, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP,
-    LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
+use super::stages::FrameLayout;
+use super::{AdapterReport, GpuContext, StageTimer};
+use crate::engine::StageTiming;
+use crate::engine::{BackwardStats, ViewInput};
+use crate::mirror::{
+    part_length, status, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP, LLVMPIPE_LOOP_BUDGET,
+    LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
 };
-use super::{AdapterReport, GpuContext, StageTimer, StageTiming};
-use crate::camera::ViewParams;
-use crate::cpu::edge_grad::SegmentStats;
-use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
-use crate::mesh::Topology;
+use crate::mirror::{EdgeGrad, RasterParams, ViewParams};
+use crate::scene::mesh::Topology;
 use crate::{Error, Result};
 
 static NEXT_BACKEND_ID: AtomicU64 = AtomicU64::new(1);
-
-/// The input of a forward.
-#[derive(Clone, Copy)]
-pub(crate) enum Input<'a> {
-    /// Screen vertices per view (already validated).
-    Screen(&'a [Vec<ScreenVertex>]),
-    /// 3D positions and one camera per view.
-    World { positions: &'a [Vec3], cameras: &'a [ViewParams] },
-}
 
 /// What a forward computes and reads back.
 #[derive(Clone, Copy)]
@@ -77,12 +69,6 @@ impl ForwardMode<'_> {
     }
 }
 
-impl Input<'_> {
-    fn is_world(&self) -> bool {
-        matches!(self, Input::World { .. })
-    }
-}
-
 /// What a forward returns.
 pub(crate) struct ForwardOutput {
     /// One image per view, row-major (empty for [`ForwardMode::Step`]).
@@ -92,7 +78,7 @@ pub(crate) struct ForwardOutput {
     /// For [`ForwardMode::Step`]: `∂L/∂(screen vertex)` per view and the segment counts, when the
     /// backward ran in the same submission (`None`: run [`GpuBackend::backward`] with no image
     /// gradients).
-    pub backward: Option<(Vec<Vec<Vec2>>, Vec<SegmentStats>)>,
+    pub backward: Option<(Vec<Vec<Vec2>>, Vec<BackwardStats>)>,
     /// Culled triangles per view.
     pub culled: Vec<u32>,
     /// Candidate edges per view.
@@ -511,7 +497,7 @@ impl GpuBackend {
         &mut self,
         topology: &Arc<Topology>,
         params: &[RasterParams],
-        input: Input<'_>,
+        input: ViewInput<'_>,
         mode: ForwardMode<'_>,
     ) -> Result<ForwardOutput> {
         let n = params.len();
@@ -534,7 +520,7 @@ impl GpuBackend {
             topology: Arc::as_ptr(topology) as usize,
             sizes: params.iter().map(|p| (p.width, p.height)).collect(),
             supersample: params[0].supersample,
-            world: input.is_world(),
+            world: matches!(input, ViewInput::World { .. }),
         };
         let layout = FrameLayout::new(params, topology.triangles().len());
         if self.frame.as_ref().is_none_or(|f| f.shape != shape) {
@@ -581,7 +567,7 @@ impl GpuBackend {
                 let mut per_view: Vec<Vec<Vec2>> = grads.chunks(vertices).map(|c| c.to_vec()).take(n).collect();
                 per_view.resize(n, Vec::new());
                 let stats = (0..n)
-                    .map(|v| SegmentStats {
+                    .map(|v| BackwardStats {
                         segments: counters[status::index(v, status::SEGMENTS)] as u64,
                         visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
                     })
@@ -801,7 +787,7 @@ impl GpuBackend {
     /// Uploads the inputs, records and submits the forward (and, for [`ForwardMode::Step`], the
     /// backward), and reads back the status counters and the images or the per-view losses (and
     /// the vertex gradients).
-    fn run_forward(&mut self, input: Input<'_>, mode: ForwardMode<'_>) -> Result<ForwardRead> {
+    fn run_forward(&mut self, input: ViewInput<'_>, mode: ForwardMode<'_>) -> Result<ForwardRead> {
         let started = std::time::Instant::now();
         let ctx = &self.ctx;
         let queue = ctx.queue();
@@ -815,14 +801,14 @@ impl GpuBackend {
             &uniform_bytes[..std::mem::size_of::<FrameParams>() + 64 * n as usize],
         );
         match input {
-            Input::Screen(screens) => {
+            ViewInput::Screen(screens) => {
                 for (v, screen) in screens.iter().enumerate() {
                     if !screen.is_empty() {
                         queue.write_buffer(&f.screen, v as u64 * vertices * 16, bytemuck::cast_slice(screen));
                     }
                 }
             }
-            Input::World { positions, cameras } => {
+            ViewInput::World { positions, cameras } => {
                 if !positions.is_empty() {
                     queue.write_buffer(&f.positions, 0, bytemuck::cast_slice(positions));
                 }
@@ -980,9 +966,9 @@ impl GpuBackend {
         frame: GpuFrame,
         topology: &Arc<Topology>,
         params: &[RasterParams],
-        input: Input<'_>,
+        input: ViewInput<'_>,
         d_images: Option<&[&[f32]]>,
-    ) -> Result<(Vec<Vec<Vec2>>, Vec<SegmentStats>)> {
+    ) -> Result<(Vec<Vec<Vec2>>, Vec<BackwardStats>)> {
         let n = params.len();
         if n == 0 {
             return Ok((Vec::new(), Vec::new()));
@@ -1047,7 +1033,7 @@ impl GpuBackend {
         let mut out: Vec<Vec<Vec2>> = per_view.take(n).collect();
         out.resize(n, Vec::new());
         let stats = (0..n)
-            .map(|v| SegmentStats {
+            .map(|v| BackwardStats {
                 segments: counters[status::index(v, status::SEGMENTS)] as u64,
                 visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
             })

@@ -48,8 +48,9 @@
 //! `workgroup_id.x + workgroup_id.y * num_workgroups.x`), bounds-checking it against its
 //! element count because the grid may have a few workgroups too many.
 
-pub(crate) mod backend;
+mod backend;
 mod context;
+mod engine;
 mod profile;
 pub mod shader;
 pub mod stages;
@@ -57,6 +58,7 @@ pub mod stages;
 pub use context::{
     dispatch_1d_with_limit, hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions, Readback,
 };
+pub(crate) use engine::GpuEngine;
 pub(crate) use profile::StageTimer;
 pub use profile::StageTiming;
 

@@ -40,7 +40,7 @@
 
 use std::fmt;
 
-use diffsil::oracle::exact_image;
+use diffsil::reference::oracle::exact_image;
 use diffsil::{Image, RenderSettings, Renderer, Vec2, Vec3, ViewParams};
 use glam::{DVec2, DVec3};
 

@@ -36,7 +36,7 @@ use std::collections::{BinaryHeap, HashMap};
 use glam::{Mat4, Quat, Vec3};
 use rayon::prelude::*;
 
-use crate::skin::{JointRest, Skeleton, SkinnedMesh};
+use crate::pose::skin::{JointRest, Skeleton, SkinnedMesh};
 use crate::Mesh;
 
 /// Joint names of the built-in figure, in SMPL's order.
@@ -162,7 +162,7 @@ pub fn joint_kinds(skeleton: &Skeleton) -> Vec<JointKind> {
 }
 
 /// Every joint's [`JointKind::random_pose_limit`], in joint order: the `limits` of
-/// [`crate::fit::random_pose`] for this skeleton.
+/// [`crate::pose::fit::random_pose`] for this skeleton.
 pub fn random_pose_limits(skeleton: &Skeleton) -> Vec<f32> {
     joint_kinds(skeleton).iter().map(|k| k.random_pose_limit()).collect()
 }

@@ -77,7 +77,7 @@
 //!   small motion resolves them.
 //!
 //! ```
-//! use diffsil::self_intersection::self_intersection;
+//! use diffsil::pose::self_intersection::self_intersection;
 //! let sphere = diffsil::shapes::icosphere(2);
 //! let r = self_intersection(sphere.positions(), sphere.triangles()).unwrap();
 //! assert_eq!(r.penalty, 0.0);
@@ -93,7 +93,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
 use obvhs::BvhBuildParams;
 
-use crate::mesh::Topology;
+use crate::scene::mesh::Topology;
 use crate::{Error, Result};
 
 // ------------------------------------------------------------------------------------------------
@@ -967,7 +967,7 @@ mod tests {
     /// The BVH self-traversal finds exactly the box-overlapping pairs a brute-force scan finds.
     #[test]
     fn self_traversal_matches_brute_force() {
-        let sphere = crate::shapes::icosphere(2);
+        let sphere = crate::scene::shapes::icosphere(2);
         // Two overlapping spheres as one mesh.
         let mut positions: Vec<Vec3> = sphere.positions().to_vec();
         let mut triangles: Vec<[u32; 3]> = sphere.triangles().to_vec();

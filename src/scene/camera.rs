@@ -6,6 +6,7 @@
 
 use glam::{Mat3, Vec2, Vec3};
 
+use crate::mirror::ViewParams;
 use crate::{Error, Result};
 
 /// Largest supported image side, in pixels.
@@ -174,37 +175,6 @@ impl Camera {
     }
 }
 
-/// Per-view projection constants, laid out for WGSL (keep in sync with `shaders/shared/view.wgsl`).
-///
-/// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]`; depth `d = −c.z`. Perspective:
-/// `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic: `x = cx + s·c.x`, `y = cy − s·c.y`.
-/// A point is valid when `near < d < far` and its pixel coordinates are within
-/// ±[`COORD_LIMIT`](crate::COORD_LIMIT).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ViewParams {
-    /// First row of `[R | t]`.
-    pub row0: [f32; 4],
-    /// Second row of `[R | t]`.
-    pub row1: [f32; 4],
-    /// Third row of `[R | t]`.
-    pub row2: [f32; 4],
-    /// Image centre in pixels.
-    pub centre: [f32; 2],
-    /// Pixels per unit of `c.x/d` (perspective) or of `c.x` (orthographic).
-    pub scale: f32,
-    /// 1 for perspective, 0 for orthographic.
-    pub perspective: u32,
-    /// Near clipping depth.
-    pub near: f32,
-    /// Far clipping depth.
-    pub far: f32,
-    /// Image width, pixels.
-    pub width: u32,
-    /// Image height, pixels.
-    pub height: u32,
-}
-
 impl ViewParams {
     #[inline]
     fn camera_space(&self, p: Vec3) -> Vec3 {
@@ -232,7 +202,8 @@ impl ViewParams {
             (c.x, c.y)
         };
         let screen = Vec2::new(self.centre[0] + self.scale * x, self.centre[1] - self.scale * y);
-        let valid = in_range && screen.x.abs() < crate::COORD_LIMIT && screen.y.abs() < crate::COORD_LIMIT;
+        let valid =
+            in_range && screen.x.abs() < crate::mirror::COORD_LIMIT && screen.y.abs() < crate::mirror::COORD_LIMIT;
         (if valid { screen } else { Vec2::ZERO }, valid)
     }
 
