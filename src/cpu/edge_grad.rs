@@ -5,7 +5,7 @@
 //! rows it spans, then the columns within each row), clips the segment to each pixel with
 //! Liang–Barsky, removes the parts whose outside is covered by another triangle (exact intervals
 //! along the segment, from the triangles binned in the pixel's tile), and applies the closed form
-//! of DESIGN.md §2 ([`crate::reference::closed_form`]). Each edge writes only its own slot: no atomics, and
+//! of ARCHITECTURE.md, *The method* ([`crate::reference::closed_form`]). Each edge writes only its own slot: no atomics, and
 //! the result does not depend on the thread count.
 
 use glam::{DVec2, Vec4};
@@ -94,7 +94,7 @@ fn edge_geometry(screen: &[ScreenVertex], edge: [u32; 2], inside: i32) -> Option
     if inside == 0 || d == DVec2::ZERO {
         return None;
     }
-    // Outward normal times the edge length: the flux direction of DESIGN.md §2.
+    // Outward normal times the edge length: the flux direction of ARCHITECTURE.md, *The method*.
     Some((va, vb, inside as f64 * DVec2::new(d.y, -d.x)))
 }
 
