@@ -10,7 +10,7 @@ use glam::Vec3;
 /// k-th distinct position met in `positions`), so an input without duplicates comes back
 /// unchanged. `0.0` and `-0.0` count as equal. Triangles that become degenerate (an index
 /// repeated) are kept: the renderer handles them. Unused vertices are kept. An index that is out
-/// of range for `positions` becomes `u32::MAX`, which [`Mesh::new`] rejects.
+/// of range for `positions` becomes `u32::MAX`, which [`Mesh::new`](crate::Mesh::new) rejects.
 pub fn weld_by_position(positions: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let (remap, kept) = weld_map(positions);
     let welded = kept.iter().map(|&i| positions[i]).collect();

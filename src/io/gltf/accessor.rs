@@ -2,14 +2,11 @@
 
 use gltf::accessor::{DataType, Dimensions};
 
-use super::read::*;
-
-// Accessors
-// ---------------------------------------------------------------------------------------------
+use super::Reason;
 
 /// Reads an accessor's components (`count × components` values, exact as f64 for every component
 /// type), after checking its type and that it lies inside its buffer view and buffer.
-pub(super) fn read_accessor(
+fn read_accessor(
     accessor: &gltf::Accessor,
     buffers: &[Vec<u8>],
     what: &str,
@@ -121,5 +118,3 @@ pub(super) fn read_joints(accessor: &gltf::Accessor, buffers: &[Vec<u8>], what: 
     let (_, values) = read_accessor(accessor, buffers, what, Dimensions::Vec4, &[DataType::U8, DataType::U16])?;
     Ok(values.chunks_exact(4).map(|c| std::array::from_fn(|k| c[k] as u16)).collect())
 }
-
-// ---------------------------------------------------------------------------------------------

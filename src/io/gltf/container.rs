@@ -2,11 +2,8 @@
 
 use std::path::Path;
 
-use super::read::*;
+use super::Reason;
 use crate::{Error, Result};
-
-// Container and document
-// ---------------------------------------------------------------------------------------------
 
 /// Parses and validates the JSON (from a GLB or a `.gltf`), returning the document and the GLB
 /// binary chunk if any.
@@ -39,14 +36,14 @@ pub(super) fn parse_document(bytes: &[u8]) -> Reason<(gltf::Document, Option<Vec
 }
 
 /// Extensions that only affect appearance (materials, textures, lights): safe to ignore.
-pub(super) fn is_appearance_extension(name: &str) -> bool {
+fn is_appearance_extension(name: &str) -> bool {
     ["KHR_materials_", "KHR_texture_", "EXT_texture_", "MSFT_texture_"].iter().any(|p| name.starts_with(p))
         || name == "KHR_lights_punctual"
 }
 
 /// Checks the GLB header (the `gltf` crate trusts its length field) and returns the bytes it
 /// declares.
-pub(super) fn check_glb_header(bytes: &[u8]) -> Reason<&[u8]> {
+fn check_glb_header(bytes: &[u8]) -> Reason<&[u8]> {
     if bytes.len() < 12 {
         return Err(format!("truncated GLB: the 12-byte header is cut off after {} bytes", bytes.len()));
     }
@@ -108,7 +105,7 @@ pub(super) fn load_buffers(document: &gltf::Document, path: &Path, mut blob: Opt
 }
 
 /// Decodes `%XX` escapes of a relative URI; `None` if malformed or not UTF-8.
-pub(super) fn percent_decode(uri: &str) -> Option<String> {
+fn percent_decode(uri: &str) -> Option<String> {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -124,5 +121,3 @@ pub(super) fn percent_decode(uri: &str) -> Option<String> {
     }
     String::from_utf8(out).ok()
 }
-
-// ---------------------------------------------------------------------------------------------

@@ -4,11 +4,8 @@ use glam::Vec3;
 use gltf::accessor::Dimensions;
 use gltf::mesh::{Mode, Semantic};
 
-use super::accessor::*;
-use super::read::*;
-
-// Geometry
-// ---------------------------------------------------------------------------------------------
+use super::accessor::{read_floats, read_indices, read_joints};
+use super::Reason;
 
 pub(super) fn is_triangle_mode(mode: Mode) -> bool {
     matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
@@ -85,7 +82,7 @@ pub(super) fn read_geometry(mesh: &gltf::Mesh, buffers: &[Vec<u8>], skin: Option
 }
 
 /// Reads, checks, renormalises and remaps `JOINTS_0` / `WEIGHTS_0` of one primitive.
-pub(super) fn read_influences(
+fn read_influences(
     primitive: &gltf::Primitive,
     buffers: &[Vec<u8>],
     at: &str,
@@ -145,8 +142,8 @@ pub(super) fn read_influences(
     Ok(())
 }
 
-/// Welds exactly equal positions: `remap[i]` is the welded index of vertex `i`, `kept[k]` the first
-/// vertex that became welded vertex `k`. Same rule as [`crate::io::weld_by_position`].
+/// Whether two vertices' skin influences agree within `tolerance`, joint by joint (weights of a
+/// joint listed twice are added; order does not matter). Welding uses it to count conflicts.
 pub(super) fn same_influences(a: ([u16; 4], [f32; 4]), b: ([u16; 4], [f32; 4]), tolerance: f32) -> bool {
     let mut per_joint: Vec<(u16, f32)> = Vec::with_capacity(8);
     for (joints, weights, sign) in [(a.0, a.1, 1.0), (b.0, b.1, -1.0)] {

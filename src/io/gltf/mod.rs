@@ -40,7 +40,7 @@
 //!
 //! # Errors
 //!
-//! [`Error::Io`] when the file (or an external buffer file) cannot be read; [`Error::Format`],
+//! [`Error::Io`](crate::Error::Io) when the file (or an external buffer file) cannot be read; [`Error::Format`](crate::Error::Format),
 //! naming the file and what is wrong, for anything malformed or unsupported: not glTF, truncated
 //! GLB, invalid JSON or glTF structure, required extensions that change geometry
 //! (`KHR_draco_mesh_compression`, `KHR_mesh_quantization`, `EXT_meshopt_compression`, …), sparse
@@ -64,6 +64,9 @@ pub use write::save_glb;
 
 use crate::pose::skin::SkinnedMesh;
 use crate::Mesh;
+
+/// Inner results carry the reason only; the public functions add the path.
+type Reason<T> = std::result::Result<T, String>;
 
 /// What [`load_gltf`] found in a glTF file.
 #[derive(Clone, Debug)]

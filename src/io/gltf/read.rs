@@ -4,15 +4,15 @@ use std::path::Path;
 
 use glam::Mat4;
 
-use super::container::*;
-use super::geometry::*;
-use super::skin::*;
-use super::*;
+use super::container::{load_buffers, parse_document};
+use super::geometry::{is_triangle_mode, read_geometry, same_influences, SkinMap};
+use super::skin::{read_skin, NodeGraph};
+use super::{LoadInfo, Model, Reason};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Error, Mesh, Result};
 
 /// Loads the first triangle mesh of a `.gltf` (embedded or external buffers) or `.glb` file, with
-/// its skin if its node has one. See the [module docs](self) for what is read and how.
+/// its skin if its node has one. See the [module docs](super) for what is read and how.
 pub fn load_gltf(path: impl AsRef<Path>) -> Result<Model> {
     load_gltf_with_info(path).map(|(model, _)| model)
 }
@@ -50,11 +50,7 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
     }
 }
 
-/// Inner results carry the reason only; the public functions add the path.
-pub(super) type Reason<T> = std::result::Result<T, String>;
-
-// ---------------------------------------------------------------------------------------------
-pub(super) fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, LoadInfo)> {
+fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, LoadInfo)> {
     let mesh =
         document.meshes().find(|m| m.primitives().any(|p| is_triangle_mode(p.mode()))).ok_or_else(|| match document
             .meshes()
@@ -110,5 +106,3 @@ pub(super) fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reas
     };
     Ok((model, info))
 }
-
-// ---------------------------------------------------------------------------------------------

@@ -6,12 +6,9 @@ use glam::{Mat4, Quat, Vec3};
 use gltf::accessor::Dimensions;
 use gltf::scene::Transform;
 
-use super::accessor::*;
-use super::read::*;
+use super::accessor::read_floats;
+use super::Reason;
 use crate::pose::skin::{JointRest, Skeleton};
-
-// Nodes and skin
-// ---------------------------------------------------------------------------------------------
 
 /// The node tree: parents, local matrices and (for TRS nodes) the TRS as written.
 pub(super) struct NodeGraph {
@@ -96,7 +93,7 @@ pub(super) fn unit_quaternion(xyzw: [f32; 4]) -> Option<Quat> {
 }
 
 /// A matrix as translation / rotation / scale, if it has no shear.
-pub(super) fn decompose(m: Mat4) -> Option<JointRest> {
+fn decompose(m: Mat4) -> Option<JointRest> {
     let (scale, rotation, translation) = m.to_scale_rotation_translation();
     let back = Mat4::from_scale_rotation_translation(scale, rotation, translation);
     let magnitude = m.to_cols_array().iter().fold(1.0f32, |a, x| a.max(x.abs()));
@@ -187,7 +184,7 @@ pub(super) fn read_skin(skin: &gltf::Skin, graph: &NodeGraph, buffers: &[Vec<u8>
 
 /// An order of the joints in which parents come before children, keeping the given order where
 /// it already is so (a joint is moved only after ancestors that came later).
-pub(super) fn parents_first(parents: &[Option<usize>]) -> Vec<usize> {
+fn parents_first(parents: &[Option<usize>]) -> Vec<usize> {
     let mut placed = vec![false; parents.len()];
     let mut order = Vec::with_capacity(parents.len());
     for joint in 0..parents.len() {
@@ -204,5 +201,3 @@ pub(super) fn parents_first(parents: &[Option<usize>]) -> Vec<usize> {
     }
     order
 }
-
-// ---------------------------------------------------------------------------------------------

@@ -4,15 +4,12 @@ use std::path::Path;
 
 use glam::{Mat4, Quat, Vec3};
 
-use super::read::*;
-use super::skin::*;
+use super::skin::unit_quaternion;
+use super::Reason;
 use crate::pose::skin::{JointRest, SkinnedMesh};
 use crate::{Error, Result};
 
-// Writing
-// ---------------------------------------------------------------------------------------------
-
-/// Writes a skinned mesh as a GLB 2.0 file that [`load_gltf`] reads back to the same data.
+/// Writes a skinned mesh as a GLB 2.0 file that [`load_gltf`](super::load_gltf) reads back to the same data.
 ///
 /// Layout: one buffer (the BIN chunk) with `POSITION` (float, with min/max), `JOINTS_0` (unsigned
 /// short), `WEIGHTS_0` (float), indices (unsigned int) and the inverse bind matrices; one mesh
@@ -31,7 +28,7 @@ pub fn save_glb(model: &SkinnedMesh, path: impl AsRef<Path>) -> Result<()> {
 }
 
 /// Checks what the GLB needs: consistent lengths and indices, finite values, unit weights.
-pub(super) fn check_for_save(model: &SkinnedMesh) -> Reason<()> {
+fn check_for_save(model: &SkinnedMesh) -> Reason<()> {
     let skeleton = &model.skeleton;
     let joints = skeleton.parents.len();
     let vertices = model.mesh.positions().len();
@@ -80,7 +77,7 @@ pub(super) fn check_for_save(model: &SkinnedMesh) -> Reason<()> {
 }
 
 /// The GLB file: header, JSON chunk (space-padded) and BIN chunk (zero-padded).
-pub(super) fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
+fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
     check_for_save(model)?;
     let skeleton = &model.skeleton;
     let positions = model.mesh.positions();
@@ -224,11 +221,11 @@ pub(super) fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
 }
 
 /// Little-endian bytes of floats.
-pub(super) fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
     values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
-/// Just enough JSON writing for the GLB [`save_glb`] writes (no serde_json dependency).
+/// Just enough JSON writing for the GLB [`save_glb`](super::save_glb) writes (no serde_json dependency).
 mod json {
     /// `{"key":value,...}`; values are already JSON.
     pub(super) fn object(fields: &[(&str, String)]) -> String {
