@@ -6,8 +6,8 @@ use super::bands::Band;
 use super::triangle::SnappedTriangle;
 use crate::mirror::{RasterParams, INVALID_SNAPPED};
 
-/// What the per-triangle pass of [`coverage`] counts on the way (for the tile size of the `bin`
-/// stage, [`bin::tile_size`](super::bin::tile_size), and the render statistics).
+/// What the per-triangle pass of [`coverage`](super::coverage) counts on the way (for the tile size of the `bin`
+/// stage, [`bin::tile_size`](crate::cpu::bin::tile_size), and the render statistics).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TriangleSummary {
     /// Triangles with a clipped vertex (not drawn).

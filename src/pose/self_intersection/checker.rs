@@ -173,7 +173,7 @@ impl SelfIntersectionChecker {
     }
 
     /// The penalty, surrogate and surrogate gradient for these positions (see the
-    /// [module docs](self)).
+    /// [module docs](super)).
     ///
     /// Errors: wrong number of positions ([`Error::LengthMismatch`]), a NaN or infinite coordinate
     /// ([`Error::NonFiniteVertex`]).

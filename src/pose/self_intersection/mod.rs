@@ -39,7 +39,7 @@
 //!
 //! # How
 //!
-//! 1. Triangle boxes go into a BVH from `obvhs` ([`BvhBuildParams::fastest_build`] with leaves of
+//! 1. Triangle boxes go into a BVH from `obvhs` ([`BvhBuildParams::fastest_build`](obvhs::BvhBuildParams::fastest_build) with leaves of
 //!    up to 4 triangles). [`SelfIntersectionChecker`] keeps it between calls and, by default,
 //!    *refits* it to the new positions, rebuilding only when refitting has degraded it (see
 //!    [`RebuildPolicy`]). For ~5k triangles a refit costs ~20 µs and a rebuild ~0.4 ms, against
@@ -117,8 +117,8 @@ pub struct SelfIntersection {
 /// The self-intersection penalty of a mesh given as positions and triangles, for one-off use. In a
 /// loop, keep a [`SelfIntersectionChecker`]: it reuses the BVH and the scratch buffers.
 ///
-/// Errors: a triangle index out of range ([`Error::IndexOutOfRange`]), a NaN or infinite
-/// coordinate ([`Error::NonFiniteVertex`]). An empty mesh has zero penalty.
+/// Errors: a triangle index out of range ([`Error::IndexOutOfRange`](crate::Error::IndexOutOfRange)), a NaN or infinite
+/// coordinate ([`Error::NonFiniteVertex`](crate::Error::NonFiniteVertex)). An empty mesh has zero penalty.
 pub fn self_intersection(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<SelfIntersection> {
     SelfIntersectionChecker::from_triangles(positions.len(), triangles)?.check(positions)
 }
