@@ -1,5 +1,5 @@
 //! The closed-form derivative of a pixel's covered area with respect to the endpoints of a
-//! silhouette segment (DESIGN.md §2), and the Liang–Barsky clip it is applied to.
+//! silhouette segment (ARCHITECTURE.md, *The method*), and the Liang–Barsky clip it is applied to.
 //!
 //! A segment of the silhouette boundary from `va` to `vb` with outward unit normal `n` and length
 //! `L`, clipped to the pixel square to parameters `s ∈ [sa, sb]` of `va + s·(vb − va)`, changes

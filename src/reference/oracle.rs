@@ -2,8 +2,9 @@
 //!
 //! [`exact_coverage`] computes, for every pixel, the area of the pixel square covered by the
 //! union of a set of 2D triangles, to about `1e-12` absolute, in `f64`. It is the ideal image of
-//! DESIGN.md §1 (the F → ∞ limit of the supersampled forward pass), and the function whose
-//! derivative the analytic backward returns; tests use it for central finite differences.
+//! ARCHITECTURE.md, *The method* (the F → ∞ limit of the supersampled forward pass), and the
+//! function whose derivative the analytic backward returns; tests use it for central finite
+//! differences.
 //!
 //! # Method ("slab method")
 //!
@@ -114,7 +115,7 @@ pub fn exact_coverage_f64(vertices: &[DVec2], triangles: &[[u32; 3]], width: u32
 }
 
 /// `outside + (inside - outside) * coverage` per pixel, with coverage from [`exact_coverage`]
-/// (the ideal image of DESIGN.md §1, with `p1 = inside`, `p0 = outside`).
+/// (the ideal image of ARCHITECTURE.md, *The method*, with `p1 = inside`, `p0 = outside`).
 pub fn exact_image(
     vertices: &[Vec2],
     triangles: &[[u32; 3]],
