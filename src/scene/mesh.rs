@@ -27,27 +27,13 @@ impl Mesh {
 
     /// A mesh with new positions on an existing topology (no rebuild of the edge tables).
     pub fn with_topology(positions: Vec<Vec3>, topology: Arc<Topology>) -> Result<Mesh> {
-        if positions.len() != topology.vertex_count() {
-            return Err(Error::LengthMismatch {
-                what: "vertex positions",
-                expected: topology.vertex_count(),
-                got: positions.len(),
-            });
-        }
-        check_finite(&positions)?;
+        check_positions(topology.vertex_count(), &positions)?;
         Ok(Mesh { positions, topology })
     }
 
     /// Replaces the vertex positions, keeping the topology. The count must not change.
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<()> {
-        if positions.len() != self.positions.len() {
-            return Err(Error::LengthMismatch {
-                what: "vertex positions",
-                expected: self.positions.len(),
-                got: positions.len(),
-            });
-        }
-        check_finite(positions)?;
+        check_positions(self.positions.len(), positions)?;
         self.positions.copy_from_slice(positions);
         Ok(())
     }
@@ -81,6 +67,18 @@ impl Mesh {
     }
 }
 
+/// Checks vertex positions for a mesh of `expected` vertices: as many as that
+/// ([`Error::LengthMismatch`]), every coordinate finite ([`Error::NonFiniteVertex`]). Shared by
+/// [`Mesh`] and the self-intersection checker.
+pub(crate) fn check_positions(expected: usize, positions: &[Vec3]) -> Result<()> {
+    if positions.len() != expected {
+        return Err(Error::LengthMismatch { what: "vertex positions", expected, got: positions.len() });
+    }
+    check_finite(positions)
+}
+
+/// Checks that every coordinate is finite ([`Error::NonFiniteVertex`], naming the first vertex
+/// that is not).
 fn check_finite(positions: &[Vec3]) -> Result<()> {
     match positions.iter().position(|p| !p.is_finite()) {
         Some(vertex) => Err(Error::NonFiniteVertex { vertex, value: positions[vertex].to_array() }),
@@ -115,18 +113,7 @@ pub struct Topology {
 impl Topology {
     /// Builds the tables for `vertex_count` vertices and these triangles.
     pub fn new(vertex_count: usize, triangles: Vec<[u32; 3]>) -> Result<Topology> {
-        if vertex_count > u32::MAX as usize / 2 || triangles.len() > u32::MAX as usize / 4 {
-            return Err(Error::LengthMismatch {
-                what: "mesh size (vertices, triangles) must fit 32-bit indices",
-                expected: u32::MAX as usize / 4,
-                got: vertex_count.max(triangles.len()),
-            });
-        }
-        for (triangle, tri) in triangles.iter().enumerate() {
-            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
-                return Err(Error::IndexOutOfRange { triangle, index, vertex_count });
-            }
-        }
+        check_triangles(vertex_count, &triangles)?;
         // Every (edge, face) incidence, sorted by edge: equal edges become runs.
         let mut incidences: Vec<([u32; 2], u32)> = Vec::with_capacity(triangles.len() * 3);
         for (face, tri) in triangles.iter().enumerate() {
@@ -263,6 +250,26 @@ impl Topology {
     pub fn vertex_edges(&self, v: usize) -> &[u32] {
         &self.vertex_edges[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize]
     }
+}
+
+/// Checks triangles over `vertex_count` vertices: sizes that fit 32-bit indices
+/// ([`Error::LengthMismatch`]) and every index in range ([`Error::IndexOutOfRange`], naming the
+/// first triangle with one that is not). Shared by [`Topology::new`] and the self-intersection
+/// checker.
+pub(crate) fn check_triangles(vertex_count: usize, triangles: &[[u32; 3]]) -> Result<()> {
+    if vertex_count > u32::MAX as usize / 2 || triangles.len() > u32::MAX as usize / 4 {
+        return Err(Error::LengthMismatch {
+            what: "mesh size (vertices, triangles) must fit 32-bit indices",
+            expected: u32::MAX as usize / 4,
+            got: vertex_count.max(triangles.len()),
+        });
+    }
+    for (triangle, tri) in triangles.iter().enumerate() {
+        if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
+            return Err(Error::IndexOutOfRange { triangle, index, vertex_count });
+        }
+    }
+    Ok(())
 }
 
 /// Whether triangle `tri` has `a` followed by `b` in its cyclic order.

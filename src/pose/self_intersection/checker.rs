@@ -13,8 +13,8 @@ use obvhs::BvhBuildParams;
 use super::contact::{dvec, plane_normal};
 use super::winding::{find, union};
 use super::{RebuildPolicy, SelfIntersection};
-use crate::scene::mesh::Topology;
-use crate::{Error, Result};
+use crate::scene::mesh::{check_positions, check_triangles, Topology};
+use crate::Result;
 
 /// Per-topology state for repeated self-intersection checks: the triangles, vertex → triangle
 /// adjacency, connected components, the BVH (refitted between calls) and scratch buffers.
@@ -70,18 +70,7 @@ impl SelfIntersectionChecker {
     /// A checker for `vertex_count` vertices and these triangles; errors if an index is out of
     /// range.
     pub fn from_triangles(vertex_count: usize, triangles: &[[u32; 3]]) -> Result<SelfIntersectionChecker> {
-        if vertex_count > u32::MAX as usize / 2 || triangles.len() > u32::MAX as usize / 4 {
-            return Err(Error::LengthMismatch {
-                what: "mesh size (vertices, triangles) must fit 32-bit indices",
-                expected: u32::MAX as usize / 4,
-                got: vertex_count.max(triangles.len()),
-            });
-        }
-        for (triangle, tri) in triangles.iter().enumerate() {
-            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
-                return Err(Error::IndexOutOfRange { triangle, index, vertex_count });
-            }
-        }
+        check_triangles(vertex_count, triangles)?;
         Ok(Self::build(vertex_count, triangles.to_vec()))
     }
 
@@ -175,19 +164,10 @@ impl SelfIntersectionChecker {
     /// The penalty, surrogate and surrogate gradient for these positions (see the
     /// [module docs](super)).
     ///
-    /// Errors: wrong number of positions ([`Error::LengthMismatch`]), a NaN or infinite coordinate
-    /// ([`Error::NonFiniteVertex`]).
+    /// Errors: wrong number of positions ([`Error::LengthMismatch`](crate::Error::LengthMismatch)),
+    /// a NaN or infinite coordinate ([`Error::NonFiniteVertex`](crate::Error::NonFiniteVertex)).
     pub fn check(&mut self, positions: &[Vec3]) -> Result<SelfIntersection> {
-        if positions.len() != self.vertex_count {
-            return Err(Error::LengthMismatch {
-                what: "vertex positions",
-                expected: self.vertex_count,
-                got: positions.len(),
-            });
-        }
-        if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::NonFiniteVertex { vertex, value: positions[vertex].to_array() });
-        }
+        check_positions(self.vertex_count, positions)?;
         let n = self.vertex_count;
         self.pairs.clear();
         if self.triangles.is_empty() {
