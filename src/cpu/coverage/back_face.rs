@@ -69,6 +69,7 @@ impl BackFaceSkip {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::coverage::triangle::area2;
     use crate::cpu::coverage::{coverage, SnappedTriangle};
     use crate::mirror::{RasterParams, ScreenVertex};
 
@@ -96,7 +97,7 @@ mod tests {
                 for c in 0..16u32 {
                     let tri = [a, b, c];
                     let v = tri.map(|i| grid[i as usize]).map(|p| [p[0] as i64, p[1] as i64]);
-                    let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
+                    let area2 = area2(&v);
                     let snapped = SnappedTriangle::new(&grid, tri);
                     for py in -1..9 {
                         for px in -1..9 {

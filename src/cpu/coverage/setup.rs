@@ -3,7 +3,7 @@
 
 use super::back_face::BackFaceSkip;
 use super::bands::Band;
-use super::triangle::SnappedTriangle;
+use super::triangle::{area2, is_top_left, SnappedTriangle};
 use crate::mirror::{RasterParams, INVALID_SNAPPED};
 
 /// What the per-triangle pass of [`coverage`](super::coverage) counts on the way (for the tile size of the `bin`
@@ -150,17 +150,14 @@ impl SetupPass<'_> {
                 continue;
             }
             let w = v.map(|p| [p[0] as i64, p[1] as i64]);
-            let area2 = (w[1][0] - w[0][0]) * (w[2][1] - w[0][1]) - (w[1][1] - w[0][1]) * (w[2][0] - w[0][0]);
+            let area2 = area2(&w);
             if area2 == 0 || (area2 < 0 && self.skip.is_some_and(|s| s.skips(b))) {
                 continue;
             }
             let (v, w) = if area2 < 0 { ([v[0], v[2], v[1]], [w[0], w[2], w[1]]) } else { (v, w) };
             let mut bias = 0u8;
             for k in 0..3 {
-                let (a, b) = (w[k], w[(k + 1) % 3]);
-                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
-                bias |= ((dy < 0 || (dy == 0 && dx > 0)) as u8) << k;
+                bias |= (is_top_left(w[k], w[(k + 1) % 3]) as u8) << k;
             }
             sink(&Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] }, r0, r1);
         }

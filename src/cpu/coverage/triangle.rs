@@ -22,19 +22,14 @@ impl SnappedTriangle {
             return None;
         }
         let mut v = s.map(|p| [p[0] as i64, p[1] as i64]);
-        let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
+        let area2 = area2(&v);
         if area2 == 0 {
             return None;
         }
         if area2 < 0 {
             v.swap(1, 2);
         }
-        let bias = [0, 1, 2].map(|k| {
-            let (a, b) = (v[k], v[(k + 1) % 3]);
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
-            (dy < 0 || (dy == 0 && dx > 0)) as i64
-        });
+        let bias = [0, 1, 2].map(|k| is_top_left(v[k], v[(k + 1) % 3]) as i64);
         Some(SnappedTriangle { v, bias })
     }
 
@@ -48,6 +43,22 @@ impl SnappedTriangle {
     pub fn covers(&self, p: [i64; 2]) -> bool {
         (0..3).all(|k| self.edge_function(k, p) + self.bias[k] > 0)
     }
+}
+
+/// Twice the signed area of a snapped triangle (units²), positive when its edge functions are
+/// positive inside.
+#[inline(always)]
+pub(super) fn area2(v: &[[i64; 2]; 3]) -> i64 {
+    (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[1][1] - v[0][1]) * (v[2][0] - v[0][0])
+}
+
+/// Whether edge `a → b` of a triangle of positive area is a top or left edge: a sample exactly on
+/// it is inside.
+#[inline(always)]
+pub(super) fn is_top_left(a: [i64; 2], b: [i64; 2]) -> bool {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    // Interior is where E > 0; with y down that makes dy < 0 a left edge, dy = 0 & dx > 0 a top edge.
+    dy < 0 || (dy == 0 && dx > 0)
 }
 
 /// Which side of a row span an edge bounds.
