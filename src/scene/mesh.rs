@@ -294,26 +294,18 @@ fn boundary_components(vertex_count: usize, triangles: &[[u32; 3]]) -> (Vec<u32>
     directed.sort_unstable_by_key(|d| d.0);
     // Union–find over the vertices of the unbalanced edges.
     let mut parent: Vec<u32> = (0..vertex_count as u32).collect();
-    fn root(parent: &mut [u32], mut v: u32) -> u32 {
-        while parent[v as usize] != v {
-            parent[v as usize] = parent[parent[v as usize] as usize];
-            v = parent[v as usize];
-        }
-        v
-    }
     let mut on_boundary = vec![false; vertex_count];
     for run in directed.chunk_by(|x, y| x.0 == y.0) {
         if run.iter().map(|d| d.1).sum::<i32>() != 0 {
             let [a, b] = run[0].0;
             on_boundary[a as usize] = true;
             on_boundary[b as usize] = true;
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            parent[ra.max(rb) as usize] = ra.min(rb);
+            union(&mut parent, a, b);
         }
     }
     // Group the boundary vertices by root (a root is its component's smallest vertex).
     let mut members: Vec<(u32, u32)> =
-        (0..vertex_count as u32).filter(|&v| on_boundary[v as usize]).map(|v| (root(&mut parent, v), v)).collect();
+        (0..vertex_count as u32).filter(|&v| on_boundary[v as usize]).map(|v| (find(&mut parent, v), v)).collect();
     members.sort_unstable();
     let mut offsets = vec![0u32];
     let mut vertices = Vec::with_capacity(members.len());
@@ -327,6 +319,28 @@ fn boundary_components(vertex_count: usize, triangles: &[[u32; 3]]) -> (Vec<u32>
         offsets.push(vertices.len() as u32);
     }
     (offsets, vertices)
+}
+
+/// Union–find over vertex indices, `parent[v] == v` at roots: the root of `x`'s set, splitting the
+/// path on the way (each node passed points to its grandparent). Roots are always their set's
+/// smallest index (see [`union`]).
+pub(crate) fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let p = parent[x as usize];
+        parent[x as usize] = parent[p as usize];
+        x = p;
+    }
+    x
+}
+
+/// Joins the sets of `a` and `b` (see [`find`]), the smaller root becoming the root: which vertex
+/// ends up the root does not depend on the order of the joins.
+pub(crate) fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+        parent[hi as usize] = lo;
+    }
 }
 
 fn vertex_edge_csr(vertex_count: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {

@@ -11,9 +11,8 @@ use obvhs::bvh2::Bvh2;
 use obvhs::BvhBuildParams;
 
 use super::contact::{dvec, plane_normal};
-use super::winding::{find, union};
 use super::{RebuildPolicy, SelfIntersection};
-use crate::scene::mesh::{check_positions, check_triangles, Topology};
+use crate::scene::mesh::{check_positions, check_triangles, find, union, Topology};
 use crate::Result;
 
 /// Per-topology state for repeated self-intersection checks: the triangles, vertex → triangle

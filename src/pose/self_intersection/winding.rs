@@ -6,6 +6,7 @@ use obvhs::ray::Ray;
 
 use super::checker::SelfIntersectionChecker;
 use super::contact::dvec;
+use crate::scene::mesh::{find, union};
 
 impl SelfIntersectionChecker {
     /// The vertices with `w⁺ ≥ 1`, ascending.
@@ -161,22 +162,4 @@ fn ray_triangle(o: DVec3, d: DVec3, t: &[DVec3; 3]) -> RayHit {
         return RayHit::Ambiguous;
     }
     RayHit::Hit
-}
-
-pub(super) fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        parent[x as usize] = parent[p as usize];
-        x = p;
-    }
-    x
-}
-
-pub(super) fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        // Smaller index as root: deterministic.
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi as usize] = lo;
-    }
 }
