@@ -70,7 +70,7 @@ impl BackFaceSkip {
 mod tests {
     use super::*;
     use crate::cpu::coverage::triangle::area2;
-    use crate::cpu::coverage::{coverage, SnappedTriangle};
+    use crate::cpu::coverage::{coverage, xorshift, SnappedTriangle};
     use crate::mirror::{RasterParams, ScreenVertex};
 
     /// `χ(a → b, p)` of [`BackFaceSkip`]: the half-open crossing count of a ray from `p` towards +x.
@@ -117,13 +117,7 @@ mod tests {
     /// camera-independent) with many exact ties on sample positions.
     #[test]
     fn back_face_skip_changes_no_sample() {
-        let mut seed = 0x0123_4567_89ab_cdefu64;
-        let mut rand = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rand = xorshift(0x0123_4567_89ab_cdef);
         let sphere = crate::scene::shapes::icosphere(2);
         let closed = sphere.triangles().to_vec();
         let mut skipped_some = false;

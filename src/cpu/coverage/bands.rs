@@ -179,18 +179,14 @@ fn bit_range(lo: u32, hi: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::coverage::xorshift;
     use crate::mirror::ScreenVertex;
 
     /// The two ways of drawing (whole-image masks per task, or bands) give the same masks.
     #[test]
     fn direct_and_banded_drawing_agree() {
-        let mut seed = 0x3c6e_f372_fe94_f82bu64;
-        let mut rand = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut next = xorshift(0x3c6e_f372_fe94_f82b);
+        let mut rand = move || next() as f32;
         for (f, w, h) in [(4, 64, 64), (3, 50, 37), (1, 31, 90), (6, 20, 20)] {
             let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
             // Triangles of all sizes (mostly small) around random centres, some off the image.

@@ -53,3 +53,15 @@ pub fn coverage(
         draw_in_bands(params, &pass, snapped, triangles, masks)
     }
 }
+
+/// The tests' random source: xorshift64 with uniform numbers in `[0, 1)` from the top 53 bits (as
+/// `f32`, cast the result: the same value as dividing in `f32`).
+#[cfg(test)]
+fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}

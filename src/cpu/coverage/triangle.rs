@@ -193,7 +193,7 @@ impl SnappedTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::coverage::coverage;
+    use crate::cpu::coverage::{coverage, xorshift};
     use crate::mirror::ScreenVertex;
 
     #[test]
@@ -208,13 +208,8 @@ mod tests {
     /// The fast paths set exactly the samples the reference predicate `covers` accepts.
     #[test]
     fn fast_paths_match_the_per_sample_predicate() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rand = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
+        let mut rand = move || next() as f32;
         for f in [1, 3, 4, 6] {
             let mut params = RasterParams::new(24, 20, f, 1.0, 0.0).unwrap();
             params.set_tile_size(8);
