@@ -141,7 +141,7 @@ impl Topology {
         if !edges.is_empty() {
             edge_face_offsets.push(edge_faces.len() as u32);
         }
-        let (vertex_edge_offsets, vertex_edges) = vertex_edge_csr(vertex_count, &edges);
+        let (vertex_edge_offsets, vertex_edges) = vertex_csr(vertex_count, &edges);
         let mut edge_face_forward = Vec::with_capacity(edge_faces.len());
         for (e, &[a, b]) in edges.iter().enumerate() {
             let faces = &edge_faces[edge_face_offsets[e] as usize..edge_face_offsets[e + 1] as usize];
@@ -343,21 +343,29 @@ pub(crate) fn union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
-fn vertex_edge_csr(vertex_count: usize, edges: &[[u32; 2]]) -> (Vec<u32>, Vec<u32>) {
+/// CSR (offsets, items) of vertex → the items (edges, triangles) that use it: offsets of length
+/// `vertex_count + 1`; each vertex's list in item order, an item listed once per vertex even where
+/// it repeats the vertex.
+pub(crate) fn vertex_csr<const N: usize>(vertex_count: usize, items: &[[u32; N]]) -> (Vec<u32>, Vec<u32>) {
     let mut offsets = vec![0u32; vertex_count + 1];
-    for e in edges {
-        offsets[e[0] as usize + 1] += 1;
-        offsets[e[1] as usize + 1] += 1;
+    for item in items {
+        for (k, &v) in item.iter().enumerate() {
+            if !item[..k].contains(&v) {
+                offsets[v as usize + 1] += 1;
+            }
+        }
     }
     for v in 0..vertex_count {
         offsets[v + 1] += offsets[v];
     }
     let mut cursor = offsets.clone();
     let mut list = vec![0u32; offsets[vertex_count] as usize];
-    for (k, e) in edges.iter().enumerate() {
-        for &v in e {
-            list[cursor[v as usize] as usize] = k as u32;
-            cursor[v as usize] += 1;
+    for (k, item) in items.iter().enumerate() {
+        for (i, &v) in item.iter().enumerate() {
+            if !item[..i].contains(&v) {
+                list[cursor[v as usize] as usize] = k as u32;
+                cursor[v as usize] += 1;
+            }
         }
     }
     (offsets, list)

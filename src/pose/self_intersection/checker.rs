@@ -12,7 +12,7 @@ use obvhs::BvhBuildParams;
 
 use super::contact::{dvec, plane_normal};
 use super::{RebuildPolicy, SelfIntersection};
-use crate::scene::mesh::{check_positions, check_triangles, find, union, Topology};
+use crate::scene::mesh::{check_positions, check_triangles, find, union, vertex_csr, Topology};
 use crate::Result;
 
 /// Per-topology state for repeated self-intersection checks: the triangles, vertex → triangle
@@ -74,27 +74,7 @@ impl SelfIntersectionChecker {
     }
 
     fn build(vertex_count: usize, triangles: Vec<[u32; 3]>) -> SelfIntersectionChecker {
-        let mut vt_offsets = vec![0u32; vertex_count + 1];
-        for tri in &triangles {
-            for (k, &v) in tri.iter().enumerate() {
-                if !tri[..k].contains(&v) {
-                    vt_offsets[v as usize + 1] += 1;
-                }
-            }
-        }
-        for v in 0..vertex_count {
-            vt_offsets[v + 1] += vt_offsets[v];
-        }
-        let mut cursor = vt_offsets.clone();
-        let mut vt_list = vec![0u32; vt_offsets[vertex_count] as usize];
-        for (t, tri) in triangles.iter().enumerate() {
-            for (k, &v) in tri.iter().enumerate() {
-                if !tri[..k].contains(&v) {
-                    vt_list[cursor[v as usize] as usize] = t as u32;
-                    cursor[v as usize] += 1;
-                }
-            }
-        }
+        let (vt_offsets, vt_list) = vertex_csr(vertex_count, &triangles);
         // Components through shared vertices.
         let mut parent: Vec<u32> = (0..vertex_count as u32).collect();
         for tri in &triangles {
