@@ -95,7 +95,7 @@ fn args() {
 // walk the item's pixels in step and scan each pixel's occluder lists LANES entries at a time.
 // (2: with one or two parts per candidate, a dense mesh's items fit about one wave of workgroups
 // on a large GPU; not yet tuned on hardware.)
-const ITEMS: u32 = 2u;
+const ITEMS: u32 = EDGE_GRAD_ITEMS_PER_WORKGROUP;
 const LANES: u32 = 64u;
 // Intervals of one pixel kept in workgroup memory; past that they are recomputed from the lists.
 const SHARED: u32 = 64u;

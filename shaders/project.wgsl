@@ -18,8 +18,6 @@
 //!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
 
-const COORD_LIMIT: f32 = 1048576.0;
-
 @group(0) @binding(1) var<storage, read> cameras: array<ViewParams>;
 @group(0) @binding(2) var<storage, read> positions: array<f32>;
 @group(0) @binding(3) var<storage, read_write> screen: array<ScreenVertex>;

@@ -8,7 +8,7 @@
 
 use rayon::prelude::*;
 
-use crate::mirror::{RasterParams, INVALID_SNAPPED};
+use crate::mirror::{RasterParams, INVALID_SNAPPED_VERTEX};
 use crate::scene::mesh::Topology;
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
@@ -25,7 +25,7 @@ impl SnappedTriangle {
     /// The snapped triangle `tri`; `None` when a vertex is clipped or the snapped area is zero.
     pub fn new(snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<SnappedTriangle> {
         let s = tri.map(|i| snapped[i as usize]);
-        if s.contains(&INVALID_SNAPPED) {
+        if s.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
         let mut v = s.map(|p| [p[0] as i64, p[1] as i64]);
@@ -91,7 +91,7 @@ impl BackFaceSkip {
     /// The skip for `topology` seen with these snapped vertices, or `None` (no skip) when a
     /// vertex is clipped.
     pub fn new(topology: &Topology, snapped: &[[i32; 2]]) -> Option<BackFaceSkip> {
-        if snapped.contains(&INVALID_SNAPPED) {
+        if snapped.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
         let components = topology.boundary_components();
@@ -241,8 +241,11 @@ impl SetupPass<'_> {
         let mut summary = TriangleSummary::default();
         for tri in chunk {
             let v = tri.map(|i| snapped[i as usize]);
-            // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
-            if v[0][0] == INVALID_SNAPPED[0] || v[1][0] == INVALID_SNAPPED[0] || v[2][0] == INVALID_SNAPPED[0] {
+            // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
+            if v[0][0] == INVALID_SNAPPED_VERTEX[0]
+                || v[1][0] == INVALID_SNAPPED_VERTEX[0]
+                || v[2][0] == INVALID_SNAPPED_VERTEX[0]
+            {
                 summary.culled += 1;
                 continue;
             }
@@ -823,7 +826,7 @@ mod tests {
         let sphere = crate::scene::shapes::icosphere(1);
         let mut snapped = vec![[5, 5]; sphere.positions().len()];
         assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_some());
-        snapped[3] = INVALID_SNAPPED;
+        snapped[3] = INVALID_SNAPPED_VERTEX;
         assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_none());
     }
 }

@@ -36,10 +36,14 @@ use super::{AdapterReport, GpuContext, StageTimer};
 use crate::engine::StageTiming;
 use crate::engine::{BackwardStats, ViewInput};
 use crate::mirror::{
-    part_length, status, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP, LLVMPIPE_LOOP_BUDGET,
-    LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
+    part_length, status_index, status_len, FrameParams, FrameUniform, GpuView, EDGE_GRAD_ITEMS_PER_WORKGROUP,
+    LLVMPIPE_LOOP_BUDGET, LLVMPIPE_LOOP_LIMIT, MAX_VIEWS,
 };
 use crate::mirror::{EdgeGrad, RasterParams, ViewParams};
+use crate::mirror::{
+    STATUS_CANDIDATES, STATUS_CANDIDATE_TOTAL, STATUS_CULLED, STATUS_MAX_ITERATIONS, STATUS_NEEDED, STATUS_OVERFLOW,
+    STATUS_PARTIALS_SHORT, STATUS_PARTS, STATUS_SEGMENTS, STATUS_VISIBLE,
+};
 use crate::scene::mesh::Topology;
 use crate::{Error, Result};
 
@@ -238,7 +242,7 @@ struct FrameBuffers {
     /// Candidate edges of all views in the last forward (the backward's work items are
     /// candidates × parts).
     candidates: u32,
-    /// Parts per candidate in the last forward ([`status::PARTS`]).
+    /// Parts per candidate in the last forward ([`STATUS_PARTS`]).
     parts: u32,
     /// Buffers only the bind groups use (masks), kept with the frame.
     _internal: Vec<wgpu::Buffer>,
@@ -465,7 +469,7 @@ impl GpuBackend {
             let (n, vertices) = (params.view_count as u64, params.vertex_count as u64);
             let staging = ctx.staging_buffer(
                 "diffsil step readback",
-                params.total_tiles as u64 * 4 + status::len(n as usize) as u64 * 4 + n * vertices * 8,
+                params.total_tiles as u64 * 4 + status_len(n as usize) as u64 * 4 + n * vertices * 8,
             )?;
             f.loss = Some(LossBuffers { target, partials, group, staging, id: 0 });
         }
@@ -543,10 +547,10 @@ impl GpuBackend {
             let read = self.run_forward(input, mode)?;
             let (images, losses, counters) = (read.images, read.losses, read.counters);
             let frame = self.frame.as_ref().expect("built above");
-            if counters[status::OVERFLOW] != 0 {
+            if counters[STATUS_OVERFLOW] != 0 {
                 return Err(Error::GpuLimit { limit: "bin entries (u32)", needed: u64::MAX, max: u32::MAX as u64 });
             }
-            let needed = counters[status::NEEDED];
+            let needed = counters[STATUS_NEEDED];
             if needed > frame.params().bin_capacity {
                 let capacity = needed as u64 + needed as u64 / 4;
                 let shape = frame.shape.clone();
@@ -555,21 +559,21 @@ impl GpuBackend {
                 self.frame = Some(self.build_frame(shape, &layout, capacity)?);
                 continue;
             }
-            self.check_iterations(counters[status::MAX_ITERATIONS])?;
+            self.check_iterations(counters[STATUS_MAX_ITERATIONS])?;
             let frame = self.frame.as_mut().expect("built above");
-            frame.candidates = counters[status::CANDIDATE_TOTAL];
-            frame.parts = counters[status::PARTS];
+            frame.candidates = counters[STATUS_CANDIDATE_TOTAL];
+            frame.parts = counters[STATUS_PARTS];
             self.last_generation += 1;
             self.generation = self.last_generation;
-            let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status::index(v, k)]).collect() };
-            let backward = read.grads.filter(|_| counters[status::PARTIALS_SHORT] == 0).map(|grads| {
+            let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status_index(v, k)]).collect() };
+            let backward = read.grads.filter(|_| counters[STATUS_PARTIALS_SHORT] == 0).map(|grads| {
                 let vertices = topology.vertex_count().max(1);
                 let mut per_view: Vec<Vec<Vec2>> = grads.chunks(vertices).map(|c| c.to_vec()).take(n).collect();
                 per_view.resize(n, Vec::new());
                 let stats = (0..n)
                     .map(|v| BackwardStats {
-                        segments: counters[status::index(v, status::SEGMENTS)] as u64,
-                        visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
+                        segments: counters[status_index(v, STATUS_SEGMENTS)] as u64,
+                        visible_segments: counters[status_index(v, STATUS_VISIBLE)] as u64,
                     })
                     .collect();
                 (per_view, stats)
@@ -578,8 +582,8 @@ impl GpuBackend {
                 images,
                 losses,
                 backward,
-                culled: per_view(status::CULLED),
-                candidates: per_view(status::CANDIDATES),
+                culled: per_view(STATUS_CULLED),
+                candidates: per_view(STATUS_CANDIDATES),
                 tile_sizes: layout.views.iter().map(|v| v.raster.tile_size).collect(),
                 frame: GpuFrame { backend: self.id, generation: self.generation },
             });
@@ -642,7 +646,7 @@ impl GpuBackend {
             loop_budget: if self.loop_limited() { LLVMPIPE_LOOP_BUDGET } else { 0 },
             partial_capacity: 0,
             max_workgroups: ctx.limits().max_compute_workgroups_per_dimension,
-            pad: [0; 1],
+            pad2: 0,
         };
         uniform.views[..layout.views.len()].copy_from_slice(&layout.views);
 
@@ -660,7 +664,7 @@ impl GpuBackend {
         let counts = ctx.storage_buffer("diffsil tile counts", layout.total_tiles * 4)?;
         let bins = ctx.storage_buffer("diffsil bins", (layout.total_tiles + 1 + capacity + large_lists) * 4)?;
         let occluders = ctx.storage_buffer("diffsil occluder records", (capacity + large_lists) * 32)?;
-        let status_buffer = ctx.storage_buffer("diffsil status", status::len(n as usize) as u64 * 4)?;
+        let status_buffer = ctx.storage_buffer("diffsil status", status_len(n as usize) as u64 * 4)?;
         let masks = ctx.storage_buffer("diffsil masks", layout.total_pixels * wpp * 4)?;
         let image = ctx.storage_buffer("diffsil image", layout.total_pixels * 4)?;
         let classes = ctx.storage_buffer("diffsil classes", n * (3 * edges + triangles) * 4)?;
@@ -668,7 +672,7 @@ impl GpuBackend {
         let slots =
             ctx.storage_buffer("diffsil edge slots", at_least_one(n * edges, std::mem::size_of::<EdgeGrad>()))?;
         let grads = ctx.storage_buffer("diffsil vertex gradients", at_least_one(n * vertices, 8))?;
-        let status_bytes = status::len(n as usize) as u64 * 4;
+        let status_bytes = status_len(n as usize) as u64 * 4;
         let dispatch = ctx.indirect_buffer("diffsil edge_grad dispatch", 12)?;
         let staging =
             ctx.staging_buffer("diffsil readback", (layout.total_pixels * 4).max(n * vertices * 8) + status_bytes)?;
@@ -869,7 +873,7 @@ impl GpuBackend {
             Some(_) => params.total_tiles as u64 * 4,
             None => params.total_pixels as u64 * 4,
         };
-        let status_bytes = status::len(n as usize) as u64 * 4;
+        let status_bytes = status_len(n as usize) as u64 * 4;
         let grad_bytes = if fused_args.is_some() { n * vertices * 8 } else { 0 };
         let staging = match (loss, fused_args) {
             (Some(loss), Some(_)) => &loss.staging,
@@ -1001,9 +1005,9 @@ impl GpuBackend {
         }
         let mut encoder = ctx.encoder("diffsil backward");
         // Clear the backward's counters; the forward's (list lengths, candidates) stay.
-        encoder.clear_buffer(&f.status, status::MAX_ITERATIONS as u64 * 4, Some(4));
+        encoder.clear_buffer(&f.status, STATUS_MAX_ITERATIONS as u64 * 4, Some(4));
         for v in 0..n {
-            encoder.clear_buffer(&f.status, status::index(v, status::SEGMENTS) as u64 * 4, Some(8));
+            encoder.clear_buffer(&f.status, status_index(v, STATUS_SEGMENTS) as u64 * 4, Some(8));
         }
         let recorded = self.record_backward(&mut StagePasses::new(&mut encoder, timer.as_mut()), partials, None);
         if let Some(t) = &timer {
@@ -1014,7 +1018,7 @@ impl GpuBackend {
             return Err(e);
         }
         let grad_bytes = views * vertices * 8;
-        let status_bytes = status::len(n) as u64 * 4;
+        let status_bytes = status_len(n) as u64 * 4;
         if grad_bytes > 0 {
             encoder.copy_buffer_to_buffer(&f.grads, 0, &f.staging, 0, grad_bytes);
         }
@@ -1028,14 +1032,14 @@ impl GpuBackend {
         let bytes = read?;
         let grads: &[Vec2] = bytemuck::cast_slice(&bytes[..grad_bytes as usize]);
         let counters: &[u32] = bytemuck::cast_slice(&bytes[grad_bytes as usize..]);
-        self.check_iterations(counters[status::MAX_ITERATIONS])?;
+        self.check_iterations(counters[STATUS_MAX_ITERATIONS])?;
         let per_view = grads.chunks(vertices.max(1) as usize).map(|c| c.to_vec());
         let mut out: Vec<Vec<Vec2>> = per_view.take(n).collect();
         out.resize(n, Vec::new());
         let stats = (0..n)
             .map(|v| BackwardStats {
-                segments: counters[status::index(v, status::SEGMENTS)] as u64,
-                visible_segments: counters[status::index(v, status::VISIBLE)] as u64,
+                segments: counters[status_index(v, STATUS_SEGMENTS)] as u64,
+                visible_segments: counters[status_index(v, STATUS_VISIBLE)] as u64,
             })
             .collect();
         Ok((out, stats))

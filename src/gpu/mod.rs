@@ -49,6 +49,7 @@
 //! element count because the grid may have a few workgroups too many.
 
 mod backend;
+pub mod bindings;
 mod context;
 mod engine;
 mod profile;
@@ -68,7 +69,7 @@ mod embedded {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }
 
-pub use embedded::{SHADERS, WORKGROUP_SIZES};
+pub use embedded::{BINDINGS, SHADERS, WORKGROUP_SIZES};
 
 /// The text of the embedded shader `name` (a path under `shaders/`, e.g. `"smoke.wgsl"`) with its
 /// `//!include` directives resolved: exactly what [`GpuContext::compute_pipeline`] compiles.

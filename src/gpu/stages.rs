@@ -74,7 +74,8 @@ impl FrameLayout {
                 raster,
                 pixel_offset: pixels.min(u32::MAX as u64) as u32,
                 tile_offset: tiles.min(u32::MAX as u64) as u32,
-                pad: [0; 2],
+                pad0: 0,
+                pad1: 0,
             });
             pixels += raster.pixel_count() as u64;
             tiles += raster.tile_count() as u64;
