@@ -175,6 +175,8 @@ fn chunk_cost(count: u32, lane: u32, lanes: u32, f: i32, tile_cols: vec2<i32>, t
     return cost;
 }
 
+// Entry point (one workgroup per tile): reads `snapped`, `triangles`, the tile's lists in `bins`;
+// writes the tile's sample masks to `masks` and its loop count to `status` (see the header).
 @compute @workgroup_size(TILE_INVOCATIONS)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

@@ -398,6 +398,9 @@ fn item_setup(item: u32, parts: u32) -> Item {
     return it;
 }
 
+// Entry point (ITEMS candidate × part work items per workgroup): reads `screen`, `occluders`, `edges`,
+// `bins`, `classes`, `d_image`, `status`; writes one entry of `partials` per work item and the
+// segment counters of `status` (see the header).
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

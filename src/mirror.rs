@@ -23,7 +23,8 @@
 //! and a Rust member renamed or missing is an `offset_of!` error naming it (`no field `pad0` on
 //! type `GpuView``). A struct or constant added to `layout.wgsl` needs its twin here (else the
 //! build fails: "cannot find … in `mirror`"); Rust-only items (methods, [`MAX_SUPERSAMPLE`],
-//! [`INVALID_SNAPPED_VERTEX`], the llvmpipe limits) are not checked. Without the `gpu` feature
+//! [`INVALID_SNAPPED_VERTEX`], the llvmpipe limits) are not checked. The status layout and the
+//! llvmpipe limits are `pub(crate)`: they are the engine's plumbing, not API. Without the `gpu` feature
 //! nothing is checked (nor needed: no shader runs).
 
 use crate::{Error, Result};
@@ -144,7 +145,7 @@ impl RasterParams {
     }
 
     /// Snaps a pixel coordinate to the fixed-point grid: `floor(x·units + 0.5)` in f32, the same
-    /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`](crate::COORD_LIMIT)).
+    /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`]).
     #[inline]
     pub fn snap(&self, x: f32) -> i32 {
         let y = x * self.units as f32 + 0.5;
@@ -178,7 +179,7 @@ pub struct EdgeGrad {
 /// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]`; depth `d = −c.z`. Perspective:
 /// `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic: `x = cx + s·c.x`, `y = cy − s·c.y`.
 /// A point is valid when `near < d < far` and its pixel coordinates are within
-/// ±[`COORD_LIMIT`](crate::COORD_LIMIT).
+/// ±[`COORD_LIMIT`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ViewParams {
@@ -275,13 +276,13 @@ pub struct FrameParams {
     pub large_offset: u32,
     /// The most parts a candidate edge can have in `edge_grad`: the largest
     /// `floor(image side / part_length) + 1` of the views ([`part_length`]). The frame's own count
-    /// is [`STATUS_PARTS`].
+    /// is the status counter `STATUS_PARTS`.
     pub parts: u32,
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
-    /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
+    /// and report it: `LLVMPIPE_LOOP_BUDGET` (60,000) on llvmpipe, 0 (no limit) elsewhere.
     pub loop_budget: u32,
     /// Capacity of the `edge_grad` partials buffer, entries: a fused step whose candidates ×
-    /// parts exceed it skips `edge_grad` and flags [`STATUS_PARTIALS_SHORT`].
+    /// parts exceed it skips `edge_grad` and flags the status counter `STATUS_PARTIALS_SHORT`.
     pub partial_capacity: u32,
     /// The device's `max_compute_workgroups_per_dimension`, for the indirect dispatch grid.
     pub max_workgroups: u32,
@@ -304,42 +305,57 @@ pub struct FrameUniform {
 // `usize` (they index the counters read back); the build checks them against the WGSL `u32`s.
 
 /// Status counter: bin entries the frame needs.
-pub const STATUS_NEEDED: usize = 0;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_NEEDED: usize = 0;
 /// Status counter: 1 when the bin entry count overflowed u32.
-pub const STATUS_OVERFLOW: usize = 1;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_OVERFLOW: usize = 1;
 /// Status counter: candidate edges of all views (the length of the candidate list).
-pub const STATUS_CANDIDATE_TOTAL: usize = 2;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CANDIDATE_TOTAL: usize = 2;
 /// Status counter: most loop iterations one invocation of `coverage` or `edge_grad` ran.
-pub const STATUS_MAX_ITERATIONS: usize = 3;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_MAX_ITERATIONS: usize = 3;
 /// Status counter: 1 when a fused step skipped `edge_grad` because the partials buffer was too
 /// small.
-pub const STATUS_PARTIALS_SHORT: usize = 4;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_PARTIALS_SHORT: usize = 4;
 /// Status counter: parts per candidate edge in `edge_grad`, the most any candidate has (at most
 /// [`FrameParams::parts`]).
-pub const STATUS_PARTS: usize = 5;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_PARTS: usize = 5;
 /// First per-view status counter; view `v` has [`STATUS_VIEW_STRIDE`] from
 /// `STATUS_VIEW_BASE + STATUS_VIEW_STRIDE·v` ([`status_index`]).
-pub const STATUS_VIEW_BASE: usize = 6;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VIEW_BASE: usize = 6;
 /// Status counters per view.
-pub const STATUS_VIEW_STRIDE: usize = 5;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VIEW_STRIDE: usize = 5;
 /// Per-view status counter: culled triangles (forward).
-pub const STATUS_CULLED: usize = 0;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CULLED: usize = 0;
 /// Per-view status counter: candidate edges (forward).
-pub const STATUS_CANDIDATES: usize = 1;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CANDIDATES: usize = 1;
 /// Per-view status counter: segments (backward).
-pub const STATUS_SEGMENTS: usize = 2;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_SEGMENTS: usize = 2;
 /// Per-view status counter: visible segments (backward).
-pub const STATUS_VISIBLE: usize = 3;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VISIBLE: usize = 3;
 /// Per-view status counter: large triangles (forward).
-pub const STATUS_LARGE: usize = 4;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_LARGE: usize = 4;
 
 /// Words in the status buffer for `views` views.
-pub fn status_len(views: usize) -> usize {
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) fn status_len(views: usize) -> usize {
     STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * views
 }
 
 /// Index of per-view counter `counter` of view `view` (`status_index` in WGSL).
-pub fn status_index(view: usize, counter: usize) -> usize {
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) fn status_index(view: usize, counter: usize) -> usize {
     STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * view + counter
 }
 
@@ -348,11 +364,13 @@ pub fn status_index(view: usize, counter: usize) -> usize {
 /// stages keep far below it (large triangles are listed per view instead of per tile, long edges
 /// are split into parts) and report their largest count, so that a scene beyond it is an
 /// [`crate::Error::GpuLimit`] there instead of a wrong result.
-pub const LLVMPIPE_LOOP_LIMIT: u32 = 65_535;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const LLVMPIPE_LOOP_LIMIT: u32 = 65_535;
 
 /// Where the stages stop on llvmpipe: below [`LLVMPIPE_LOOP_LIMIT`] by a margin for the few loops
 /// they do not count.
-pub const LLVMPIPE_LOOP_BUDGET: u32 = 60_000;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const LLVMPIPE_LOOP_BUDGET: u32 = 60_000;
 
 #[cfg(feature = "gpu")]
 include!(concat!(env!("OUT_DIR"), "/mirror_checks.rs"));

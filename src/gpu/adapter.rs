@@ -71,7 +71,7 @@ pub(super) fn parse_adapter_choice(value: &str) -> AdapterChoice {
     }
 }
 
-/// What adapter a [`GpuContext`] runs on.
+/// What adapter a [`GpuContext`](super::GpuContext) runs on.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AdapterReport {
     /// The adapter's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.

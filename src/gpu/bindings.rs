@@ -1,6 +1,6 @@
 //! Bind groups from reflected bindings: `build/shaders.rs` reflects with naga which resources every
 //! compute entry point uses ([`BINDINGS`](super::BINDINGS)); a stage's bind groups are made by
-//! looking up each binding's WGSL variable name in a [`BufferTable`], so no binding number is
+//! looking up each binding's WGSL variable name in a table of the frame's buffers (`BufferTable`), so no binding number is
 //! written in Rust.
 
 use super::stages::Stage;

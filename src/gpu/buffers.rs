@@ -283,11 +283,16 @@ impl GpuBackend {
             .map(|v| v.raster.width.max(v.raster.height) / part_length(v.raster.tile_size) + 1)
             .max()
             .unwrap_or(1);
-        if self.loop_limited() && layout.total_tiles.div_ceil(256) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
+        // `scan` is one workgroup: each invocation sums a chunk of the tiles.
+        let scan = Stage::Scan.info();
+        let scan_lanes = super::workgroup_size(scan.shader, scan.entry_point)
+            .map(|[x, y, z]| u64::from(x * y * z))
+            .ok_or_else(|| Error::Gpu("no reflected workgroup size for `scan.wgsl`".into()))?;
+        if self.loop_limited() && layout.total_tiles.div_ceil(scan_lanes) * 2 + 64 > LLVMPIPE_LOOP_LIMIT as u64 {
             return Err(Error::GpuLimit {
                 limit: "tiles per frame on llvmpipe (65,535 loop iterations per invocation)",
                 needed: layout.total_tiles,
-                max: (LLVMPIPE_LOOP_LIMIT as u64 - 64) / 2 * 256,
+                max: (LLVMPIPE_LOOP_LIMIT as u64 - 64) / 2 * scan_lanes,
             });
         }
 

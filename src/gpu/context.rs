@@ -17,7 +17,7 @@ type ErrorLog = Arc<Mutex<Vec<String>>>;
 /// Every wgpu validation, out-of-memory or internal error becomes an [`Error::Gpu`]: the helpers
 /// catch errors in scopes, and errors raised elsewhere (by code using [`GpuContext::device`]
 /// directly) are collected and returned by [`GpuContext::check_errors`] (which
-/// [`GpuContext::submit`] and [`Readback`] call) instead of panicking.
+/// [`GpuContext::submit`] and [`Readback`](super::Readback) call) instead of panicking.
 pub struct GpuContext {
     pub(super) device: wgpu::Device,
     queue: wgpu::Queue,

@@ -33,7 +33,7 @@
 //!
 //! All views of a frame go through each stage in one dispatch: per-view buffers are concatenated
 //! (screen vertices `view · V + v`, edge slots `view · E + e`, pixels and tiles at the offsets of
-//! [`GpuView`]), and the frame uniform ([`FrameUniform`]) holds every view's constants.
+//! [`GpuView`]), and the frame uniform ([`FrameUniform`](crate::mirror::FrameUniform)) holds every view's constants.
 //!
 //! ## Tile size
 //!
