@@ -262,6 +262,37 @@ mod tests {
     }
 
     #[test]
+    fn a_3d_forward_projects_before_it_reads_the_screen_vertices() {
+        let Some(ctx) = context("a_3d_forward_projects_before_it_reads_the_screen_vertices") else { return };
+        let mut backend = GpuBackend::new(ctx).unwrap();
+        let (topology, params, _) = scene();
+        let positions: Vec<glam::Vec3> =
+            [[-1.0, -1.0, 0.0], [1.0, -0.8, 0.2], [0.1, 1.0, 0.0], [-0.9, 0.6, 0.3], [0.8, 0.9, -0.2]]
+                .map(glam::Vec3::from)
+                .to_vec();
+        let cameras: Vec<crate::mirror::ViewParams> = params
+            .iter()
+            .map(|p| crate::mirror::ViewParams {
+                row0: [1.0, 0.0, 0.0, 0.0],
+                row1: [0.0, 1.0, 0.0, 0.0],
+                row2: [0.0, 0.0, 1.0, -5.0],
+                centre: [p.width as f32 / 2.0, p.height as f32 / 2.0],
+                scale: 20.0,
+                perspective: 1,
+                near: 0.1,
+                far: 100.0,
+                width: p.width,
+                height: p.height,
+            })
+            .collect();
+        let input = ViewInput::World { positions: &positions, cameras: &cameras };
+        backend.forward(&topology, &params, input, ForwardMode::Images).unwrap();
+        let forward = backend.last_recording();
+        assert_eq!(forward.stages(), ["project", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges"]);
+        forward.check_reads_follow_writes().unwrap();
+    }
+
+    #[test]
     fn the_check_finds_a_read_before_any_write() {
         let recording = Recording {
             label: "test",
