@@ -7,8 +7,15 @@
 //!   on its own once its own includes are spliced in: it includes what it uses.
 //! - Any invalid shader fails the build with naga's formatted message (file name and source
 //!   span), plus the original `file:line` when the span lies in an included file.
-//! - `$OUT_DIR/shaders.rs` gets `SHADERS` (every file, via `include_str!`) and
-//!   `WORKGROUP_SIZES` (every compute entry point's `@workgroup_size`).
+//! - `$OUT_DIR/shaders.rs` gets `SHADERS` (every file, via `include_str!`),
+//!   `WORKGROUP_SIZES` (every compute entry point's `@workgroup_size`) and `BINDINGS` (every
+//!   compute entry point's resource bindings as naga's analysis finds them: group, binding,
+//!   variable name, declared access, and whether the entry point reads or writes it). The GPU
+//!   engine creates its bind groups from `BINDINGS` by variable name (`src/gpu/bindings.rs`).
+//! - `$OUT_DIR/mirror_checks.rs`, included by `src/mirror.rs`, is made of compile-time asserts
+//!   reflected from `shaders/shared/layout.wgsl`: for every WGSL struct, the size of the Rust
+//!   struct of the same name in `crate::mirror` and the offset of every member (by name); for
+//!   every WGSL `const`, the value of the Rust constant of the same name (compared as `f64`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -49,11 +56,36 @@ pub fn main() {
 
     let mut errors = Vec::new();
     let mut workgroup_sizes = Vec::new();
+    let mut bindings = Vec::new();
+    let mut mirror_checks = None;
     for (name, _, _) in &files {
         match validate(&map, name) {
-            Ok(sizes) => workgroup_sizes.extend(sizes.into_iter().map(|(entry, size)| (name.clone(), entry, size))),
+            Ok((module, info)) => {
+                workgroup_sizes.extend(
+                    module
+                        .entry_points
+                        .iter()
+                        .filter(|ep| ep.stage == naga::ShaderStage::Compute && ep.workgroup_size_overrides.is_none())
+                        .map(|ep| (name.clone(), ep.name.clone(), ep.workgroup_size)),
+                );
+                match entry_bindings(&module, &info) {
+                    Ok(list) => bindings.extend(list.into_iter().map(|(entry, b)| (name.clone(), entry, b))),
+                    Err(message) => errors.push(format!("error: shaders/{name}: {message}\n")),
+                }
+                if name == MIRROR_SHADER {
+                    match mirror_asserts(&module) {
+                        Ok(text) => mirror_checks = Some(text),
+                        Err(message) => errors.push(format!("error: shaders/{name}: {message}\n")),
+                    }
+                }
+            }
             Err(message) => errors.push(message),
         }
+    }
+    if mirror_checks.is_none() && errors.is_empty() {
+        errors.push(format!(
+            "error: shaders/{MIRROR_SHADER} is missing: it holds the structs shared with src/mirror.rs\n"
+        ));
     }
     if !errors.is_empty() {
         fail(&format!("{} invalid WGSL shader(s):\n\n{}", errors.len(), errors.join("\n")));
@@ -79,13 +111,154 @@ pub fn main() {
     for (name, entry, [x, y, z]) in &workgroup_sizes {
         writeln!(generated, "    ({name:?}, {entry:?}, [{x}, {y}, {z}]),").unwrap();
     }
+    generated.push_str("];\n\n");
+    generated.push_str(
+        "/// The resource bindings every compute entry point uses, as `(shader, entry point, bindings)`,\n\
+         /// sorted by group and binding, reflected by naga at build time.\n",
+    );
+    generated.push_str("pub static BINDINGS: &[(&str, &str, &[super::bindings::Binding])] = &[\n");
+    let mut entries: Vec<(&String, &String)> = Vec::new();
+    for (shader, entry, _) in &bindings {
+        if !entries.contains(&(shader, entry)) {
+            entries.push((shader, entry));
+        }
+    }
+    for (shader, entry) in entries {
+        writeln!(generated, "    ({shader:?}, {entry:?}, &[").unwrap();
+        for (_, _, b) in bindings.iter().filter(|(s, e, _)| s == shader && e == entry) {
+            writeln!(
+                generated,
+                "        super::bindings::Binding {{ group: {}, binding: {}, name: {:?}, access: super::bindings::Access::{}, reads: {}, writes: {} }},",
+                b.group, b.binding, b.name, b.access, b.reads, b.writes
+            )
+            .unwrap();
+        }
+        generated.push_str("    ]),\n");
+    }
     generated.push_str("];\n");
 
-    let target = out_dir.join("shaders.rs");
-    // Only write when changed, so that an unchanged shader set does not rebuild the crate.
-    if std::fs::read_to_string(&target).ok().as_deref() != Some(generated.as_str()) {
-        std::fs::write(&target, generated).unwrap_or_else(|e| fail(&format!("cannot write {}: {e}", target.display())));
+    write_if_changed(&out_dir.join("shaders.rs"), &generated);
+    write_if_changed(&out_dir.join("mirror_checks.rs"), &mirror_checks.expect("checked above"));
+}
+
+/// The shader whose structs and constants `src/mirror.rs` mirrors.
+const MIRROR_SHADER: &str = "shared/layout.wgsl";
+
+/// Writes `text` to `target` unless it already holds it, so that unchanged output does not
+/// rebuild the crate.
+fn write_if_changed(target: &Path, text: &str) {
+    if std::fs::read_to_string(target).ok().as_deref() != Some(text) {
+        std::fs::write(target, text).unwrap_or_else(|e| fail(&format!("cannot write {}: {e}", target.display())));
     }
+}
+
+/// One resource binding of an entry point.
+struct Reflected {
+    group: u32,
+    binding: u32,
+    name: String,
+    /// `Uniform`, `Read` or `ReadWrite` (the variant of `gpu::bindings::Access`).
+    access: &'static str,
+    reads: bool,
+    writes: bool,
+}
+
+/// The bindings each compute entry point of `module` uses (naga's `GlobalUse`), sorted.
+fn entry_bindings(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Result<Vec<(String, Reflected)>, String> {
+    let mut out = Vec::new();
+    for (index, ep) in module.entry_points.iter().enumerate() {
+        if ep.stage != naga::ShaderStage::Compute {
+            continue;
+        }
+        let uses = info.get_entry_point(index);
+        let mut list = Vec::new();
+        for (handle, global) in module.global_variables.iter() {
+            let used = uses[handle];
+            let Some(binding) = &global.binding else { continue };
+            if used.is_empty() {
+                continue;
+            }
+            let name = global.name.clone().ok_or_else(|| {
+                format!("entry point `{}` uses an unnamed global at binding {}", ep.name, binding.binding)
+            })?;
+            let access = match global.space {
+                naga::AddressSpace::Uniform => "Uniform",
+                naga::AddressSpace::Storage { access } if access.contains(naga::StorageAccess::STORE) => "ReadWrite",
+                naga::AddressSpace::Storage { .. } => "Read",
+                other => {
+                    return Err(format!(
+                        "entry point `{}` binds `{name}` in address space {other:?}; only uniform and storage buffers are supported",
+                        ep.name
+                    ))
+                }
+            };
+            list.push(Reflected {
+                group: binding.group,
+                binding: binding.binding,
+                name,
+                access,
+                reads: used.contains(naga::valid::GlobalUse::READ),
+                writes: used.contains(naga::valid::GlobalUse::WRITE),
+            });
+        }
+        list.sort_by_key(|b| (b.group, b.binding));
+        out.extend(list.into_iter().map(|b| (ep.name.clone(), b)));
+    }
+    Ok(out)
+}
+
+/// The compile-time asserts of `$OUT_DIR/mirror_checks.rs` for the structs and constants of the
+/// mirror shader.
+fn mirror_asserts(module: &naga::Module) -> Result<String, String> {
+    let files = format!("src/mirror.rs and shaders/{MIRROR_SHADER}");
+    let mut out = String::new();
+    out.push_str("// @generated by build.rs from shaders/shared/layout.wgsl. Do not edit.\n");
+    out.push_str("// Compile-time checks that src/mirror.rs mirrors the WGSL structs and constants.\n\n");
+    for (_, ty) in module.types.iter() {
+        let (Some(name), naga::TypeInner::Struct { members, span }) = (&ty.name, &ty.inner) else { continue };
+        writeln!(
+            out,
+            "const _: () = assert!(::core::mem::size_of::<crate::mirror::{name}>() == {span}, \
+             \"the size of struct `{name}` differs between {files} (WGSL: {span} bytes)\");"
+        )
+        .unwrap();
+        for member in members {
+            let Some(member_name) = &member.name else {
+                return Err(format!("struct `{name}` has an unnamed member"));
+            };
+            let offset = member.offset;
+            writeln!(
+                out,
+                "const _: () = assert!(::core::mem::offset_of!(crate::mirror::{name}, {member_name}) == {offset}, \
+                 \"the offset of `{name}::{member_name}` differs between {files} (WGSL: {offset})\");"
+            )
+            .unwrap();
+        }
+    }
+    for (_, constant) in module.constants.iter() {
+        let Some(name) = &constant.name else { continue };
+        let value = match module.global_expressions[constant.init] {
+            naga::Expression::Literal(literal) => match literal {
+                naga::Literal::F64(x) => x,
+                naga::Literal::F32(x) => f64::from(x),
+                naga::Literal::U32(x) => f64::from(x),
+                naga::Literal::I32(x) => f64::from(x),
+                naga::Literal::U64(x) => x as f64,
+                naga::Literal::I64(x) => x as f64,
+                naga::Literal::AbstractInt(x) => x as f64,
+                naga::Literal::AbstractFloat(x) => x,
+                other => return Err(format!("constant `{name}` has a value of unsupported type ({other:?})")),
+            },
+            ref other => return Err(format!("constant `{name}` is not a scalar literal after evaluation ({other:?})")),
+        };
+        writeln!(
+            out,
+            "const _: () = assert!(crate::mirror::{name} as f64 == {value:?}f64, \
+             \"the value of constant `{name}` differs between {files} (WGSL: {value})\");"
+        )
+        .unwrap();
+    }
+    Ok(out)
 }
 
 /// Every `*.wgsl` under `dir`, recursively.
@@ -101,9 +274,9 @@ fn collect_wgsl(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// Resolves, parses and validates one shader; returns its compute entry points' workgroup sizes,
-/// or the formatted error.
-fn validate(files: &[(&str, &str)], name: &str) -> Result<Vec<(String, [u32; 3])>, String> {
+/// Resolves, parses and validates one shader; returns the module and naga's analysis of it, or the
+/// formatted error.
+fn validate(files: &[(&str, &str)], name: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     let resolved = shader::resolve(files, name).map_err(|e| format!("error: {e}\n"))?;
     let path = format!("shaders/{name}");
     let source = &resolved.source;
@@ -122,15 +295,10 @@ fn validate(files: &[(&str, &str)], name: &str) -> Result<Vec<(String, [u32; 3])
     // wgpu (`wgpu_naga_bridge::features_to_naga_capabilities`), so shaders must not need more.
     let mut validator =
         naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty());
-    validator
+    let info = validator
         .validate(&module)
         .map_err(|e| format!("{}{}", e.emit_to_string_with_path(source, &path), origin_note(e.location(source))))?;
-    Ok(module
-        .entry_points
-        .iter()
-        .filter(|ep| ep.stage == naga::ShaderStage::Compute && ep.workgroup_size_overrides.is_none())
-        .map(|ep| (ep.name.clone(), ep.workgroup_size))
-        .collect())
+    Ok((module, info))
 }
 
 /// Fails the build with `message` (cargo shows a failed build script's stderr).

@@ -1,11 +1,31 @@
 //! The shader mirror: every `#[repr(C)]` twin of a WGSL struct and every constant the Rust side
 //! shares with the WGSL stages, in one place.
 //!
-//! The WGSL side is `shaders/shared/layout.wgsl`. With the `gpu` feature, `build.rs` reflects that
-//! file with naga and the crate checks, at compile time, that each struct here has the size and
-//! the member offsets of its WGSL twin and that each shared constant has the same value: a
-//! mismatch fails the build and names the struct, member or constant. The CPU stages use the same
+//! The WGSL side is `shaders/shared/layout.wgsl`; every struct and `const` there has a twin here
+//! **of the same name** (struct members too, padding included). The CPU stages use the same
 //! structs, so both engines read and write one layout.
+//!
+//! ## Checked at build time
+//!
+//! With the `gpu` feature, `build/shaders.rs` reflects `layout.wgsl` with naga and writes
+//! `$OUT_DIR/mirror_checks.rs`, included at the end of this module: one compile-time `assert!`
+//! per WGSL struct (`size_of` of the Rust struct equals naga's size), per struct member
+//! (`offset_of!` of the Rust member of the same name equals naga's offset) and per WGSL constant
+//! (the Rust constant of the same name, converted with `as f64`, equals the WGSL value). So a
+//! mismatch fails `cargo build`; for instance, with `MAX_VIEWS` changed to 255 here only:
+//!
+//! ```text
+//! error[E0080]: evaluation panicked: the value of constant `MAX_VIEWS` differs between
+//!               src/mirror.rs and shaders/shared/layout.wgsl (WGSL: 256)
+//!   --> …/out/mirror_checks.rs
+//! ```
+//!
+//! and a Rust member renamed or missing is an `offset_of!` error naming it (`no field `pad0` on
+//! type `GpuView``). A struct or constant added to `layout.wgsl` needs its twin here (else the
+//! build fails: "cannot find … in `mirror`"); Rust-only items (methods, [`MAX_SUPERSAMPLE`],
+//! [`INVALID_SNAPPED_VERTEX`], the llvmpipe limits) are not checked. The status layout and the
+//! llvmpipe limits are `pub(crate)`: they are the engine's plumbing, not API. Without the `gpu` feature
+//! nothing is checked (nor needed: no shader runs).
 
 use crate::{Error, Result};
 
@@ -26,7 +46,7 @@ pub struct ScreenVertex {
     pub pad: u32,
 }
 
-/// Per-view raster constants (keep in sync with `RasterParams` in `shaders/shared/layout.wgsl`).
+/// Per-view raster constants (`RasterParams` in `shaders/shared/layout.wgsl`).
 ///
 /// Coverage runs on a fixed-point grid of `units` per pixel. Sample column `sx` of the image sits
 /// at `(2·sx + 1)·half_step` units (likewise rows), i.e. sample `a` of pixel column `j` at
@@ -61,9 +81,12 @@ pub struct RasterParams {
     pub inv_samples: f32,
 }
 
-/// The snapped position of a clipped vertex (never a real position: snapped coordinates are
+/// Each snapped coordinate of a clipped vertex (never a real coordinate: snapped coordinates are
 /// within ±2^29).
-pub const INVALID_SNAPPED: [i32; 2] = [i32::MIN, i32::MIN];
+pub const INVALID_SNAPPED: i32 = i32::MIN;
+
+/// The snapped position of a clipped vertex: [`INVALID_SNAPPED`] twice.
+pub const INVALID_SNAPPED_VERTEX: [i32; 2] = [INVALID_SNAPPED, INVALID_SNAPPED];
 
 /// Largest supported supersampling factor.
 pub const MAX_SUPERSAMPLE: u32 = 16;
@@ -122,7 +145,7 @@ impl RasterParams {
     }
 
     /// Snaps a pixel coordinate to the fixed-point grid: `floor(x·units + 0.5)` in f32, the same
-    /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`](crate::COORD_LIMIT)).
+    /// arithmetic as WGSL's `snap` (exact for |x| < [`COORD_LIMIT`]).
     #[inline]
     pub fn snap(&self, x: f32) -> i32 {
         let y = x * self.units as f32 + 0.5;
@@ -130,11 +153,11 @@ impl RasterParams {
         t - (y < t as f32) as i32
     }
 
-    /// Snaps a screen vertex; clipped vertices become [`INVALID_SNAPPED`].
+    /// Snaps a screen vertex; clipped vertices become [`INVALID_SNAPPED_VERTEX`].
     #[inline]
     pub fn snap_vertex(&self, v: &ScreenVertex) -> [i32; 2] {
         if v.valid == 0 {
-            INVALID_SNAPPED
+            INVALID_SNAPPED_VERTEX
         } else {
             [self.snap(v.position[0]), self.snap(v.position[1])]
         }
@@ -151,12 +174,12 @@ pub struct EdgeGrad {
     pub b: [f32; 2],
 }
 
-/// Per-view projection constants, laid out for WGSL (keep in sync with `shaders/shared/view.wgsl`).
+/// Per-view projection constants (`ViewParams` in `shaders/shared/layout.wgsl`).
 ///
 /// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]`; depth `d = −c.z`. Perspective:
 /// `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic: `x = cx + s·c.x`, `y = cy − s·c.y`.
 /// A point is valid when `near < d < far` and its pixel coordinates are within
-/// ±[`COORD_LIMIT`](crate::COORD_LIMIT).
+/// ±[`COORD_LIMIT`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ViewParams {
@@ -185,24 +208,30 @@ pub struct ViewParams {
 /// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.
 pub const MAX_GPU_TILE_SIZE: u32 = 16;
 
+/// Part length per tile side: see [`part_length`].
+pub const PART_LENGTH_PER_TILE_SIDE: u32 = 4;
+/// Shortest part: see [`part_length`].
+pub const PART_LENGTH_MIN: u32 = 4;
+/// Longest part: see [`part_length`].
+pub const PART_LENGTH_MAX: u32 = 16;
+
 /// Pixels per part of an edge along its major axis in `edge_grad` for a view with tiles of
-/// `tile_size` pixels: 4 · tile_size, from 4 to 16 (keep in sync with `part_length` in
-/// `shaders/shared/parts.wgsl`, where the parts of an edge are counted from its own first pixel
-/// line). Dense meshes (small tiles) get short parts, so that no workgroup walks many pixels with
-/// long occluder lists.
+/// `tile_size` pixels: 4 · tile_size, from 4 to 16 (the same formula as `part_length` in
+/// `shaders/shared/parts.wgsl`, from the same constants, where the parts of an edge are counted
+/// from its own first pixel line). Dense meshes (small tiles) get short parts, so that no
+/// workgroup walks many pixels with long occluder lists.
 pub fn part_length(tile_size: u32) -> u32 {
-    (4 * tile_size).clamp(4, 16)
+    (PART_LENGTH_PER_TILE_SIDE * tile_size).clamp(PART_LENGTH_MIN, PART_LENGTH_MAX)
 }
 
-/// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main`, whose 64 lanes
-/// take the items one after another and split each pixel's occluder scan (keep in sync with
-/// `ITEMS` there).
+/// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main` (its `ITEMS`),
+/// whose 64 lanes take the items one after another and split each pixel's occluder scan.
 pub const EDGE_GRAD_ITEMS_PER_WORKGROUP: u32 = 2;
 
-/// Views per GPU frame: the size of the uniform array of views (keep in sync with `MAX_VIEWS`).
+/// Views per GPU frame: the size of the uniform array of views.
 pub const MAX_VIEWS: usize = 256;
 
-/// One view of a multi-view GPU frame (keep in sync with `GpuView` in `shaders/shared/layout.wgsl`).
+/// One view of a multi-view GPU frame (`GpuView` in `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuView {
@@ -213,10 +242,12 @@ pub struct GpuView {
     /// First tile of this view in the concatenated tile arrays.
     pub tile_offset: u32,
     /// Padding to 64 bytes.
-    pub pad: [u32; 2],
+    pub pad0: u32,
+    /// Padding to 64 bytes.
+    pub pad1: u32,
 }
 
-/// Sizes of a GPU frame (keep in sync with `FrameParams` in `shaders/shared/layout.wgsl`).
+/// Sizes of a GPU frame (`FrameParams` in `shaders/shared/layout.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameParams {
@@ -245,22 +276,22 @@ pub struct FrameParams {
     pub large_offset: u32,
     /// The most parts a candidate edge can have in `edge_grad`: the largest
     /// `floor(image side / part_length) + 1` of the views ([`part_length`]). The frame's own count
-    /// is [`status::PARTS`].
+    /// is the status counter `STATUS_PARTS`.
     pub parts: u32,
     /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
-    /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
+    /// and report it: `LLVMPIPE_LOOP_BUDGET` (60,000) on llvmpipe, 0 (no limit) elsewhere.
     pub loop_budget: u32,
     /// Capacity of the `edge_grad` partials buffer, entries: a fused step whose candidates ×
-    /// parts exceed it skips `edge_grad` and flags [`status::PARTIALS_SHORT`].
+    /// parts exceed it skips `edge_grad` and flags the status counter `STATUS_PARTIALS_SHORT`.
     pub partial_capacity: u32,
     /// The device's `max_compute_workgroups_per_dimension`, for the indirect dispatch grid.
     pub max_workgroups: u32,
     /// Padding to 64 bytes.
-    pub pad: [u32; 1],
+    pub pad2: u32,
 }
 
-/// The frame uniform, binding 0 of every stage (keep in sync with `Frame` in
-/// `shaders/shared/layout.wgsl`). Only the first `64 + 64 · view_count` bytes are uploaded.
+/// The frame uniform, binding 0 of every stage (`FrameUniform` in `shaders/shared/layout.wgsl`).
+/// Only the first `64 + 64 · view_count` bytes are uploaded.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameUniform {
@@ -270,45 +301,62 @@ pub struct FrameUniform {
     pub views: [GpuView; MAX_VIEWS],
 }
 
-/// Layout of the `status` buffer (u32 counters; see `shaders/shared/layout.wgsl`).
-pub mod status {
-    /// Bin entries the frame needs.
-    pub const NEEDED: usize = 0;
-    /// 1 when the bin entry count overflowed u32.
-    pub const OVERFLOW: usize = 1;
-    /// Candidate edges of all views (the length of the candidate list).
-    pub const CANDIDATE_TOTAL: usize = 2;
-    /// Most loop iterations one invocation of `coverage` or `edge_grad` ran.
-    pub const MAX_ITERATIONS: usize = 3;
-    /// 1 when a fused step skipped `edge_grad` because the partials buffer was too small.
-    pub const PARTIALS_SHORT: usize = 4;
-    /// Parts per candidate edge in `edge_grad`: the most any candidate has (at most
-    /// [`FrameParams::parts`](super::FrameParams::parts)).
-    pub const PARTS: usize = 5;
-    /// First per-view counter; view `v` has [`VIEW_STRIDE`] from `VIEW_BASE + VIEW_STRIDE·v`.
-    pub const VIEW_BASE: usize = 6;
-    /// Counters per view.
-    pub const VIEW_STRIDE: usize = 5;
-    /// Culled triangles (forward).
-    pub const CULLED: usize = 0;
-    /// Candidate edges (forward).
-    pub const CANDIDATES: usize = 1;
-    /// Segments (backward).
-    pub const SEGMENTS: usize = 2;
-    /// Visible segments (backward).
-    pub const VISIBLE: usize = 3;
-    /// Large triangles (forward).
-    pub const LARGE: usize = 4;
+// Layout of the `status` buffer (u32 counters; see `shaders/shared/layout.wgsl`). The values are
+// `usize` (they index the counters read back); the build checks them against the WGSL `u32`s.
 
-    /// Words in the status buffer for `views` views.
-    pub fn len(views: usize) -> usize {
-        VIEW_BASE + VIEW_STRIDE * views
-    }
+/// Status counter: bin entries the frame needs.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_NEEDED: usize = 0;
+/// Status counter: 1 when the bin entry count overflowed u32.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_OVERFLOW: usize = 1;
+/// Status counter: candidate edges of all views (the length of the candidate list).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CANDIDATE_TOTAL: usize = 2;
+/// Status counter: most loop iterations one invocation of `coverage` or `edge_grad` ran.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_MAX_ITERATIONS: usize = 3;
+/// Status counter: 1 when a fused step skipped `edge_grad` because the partials buffer was too
+/// small.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_PARTIALS_SHORT: usize = 4;
+/// Status counter: parts per candidate edge in `edge_grad`, the most any candidate has (at most
+/// [`FrameParams::parts`]).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_PARTS: usize = 5;
+/// First per-view status counter; view `v` has [`STATUS_VIEW_STRIDE`] from
+/// `STATUS_VIEW_BASE + STATUS_VIEW_STRIDE·v` ([`status_index`]).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VIEW_BASE: usize = 6;
+/// Status counters per view.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VIEW_STRIDE: usize = 5;
+/// Per-view status counter: culled triangles (forward).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CULLED: usize = 0;
+/// Per-view status counter: candidate edges (forward).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_CANDIDATES: usize = 1;
+/// Per-view status counter: segments (backward).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_SEGMENTS: usize = 2;
+/// Per-view status counter: visible segments (backward).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_VISIBLE: usize = 3;
+/// Per-view status counter: large triangles (forward).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const STATUS_LARGE: usize = 4;
 
-    /// Index of counter `counter` of view `view`.
-    pub fn index(view: usize, counter: usize) -> usize {
-        VIEW_BASE + VIEW_STRIDE * view + counter
-    }
+/// Words in the status buffer for `views` views.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) fn status_len(views: usize) -> usize {
+    STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * views
+}
+
+/// Index of per-view counter `counter` of view `view` (`status_index` in WGSL).
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) fn status_index(view: usize, counter: usize) -> usize {
+    STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * view + counter
 }
 
 /// Loop iterations one shader invocation may run on Mesa's llvmpipe/lavapipe, which silently ends
@@ -316,8 +364,13 @@ pub mod status {
 /// stages keep far below it (large triangles are listed per view instead of per tile, long edges
 /// are split into parts) and report their largest count, so that a scene beyond it is an
 /// [`crate::Error::GpuLimit`] there instead of a wrong result.
-pub const LLVMPIPE_LOOP_LIMIT: u32 = 65_535;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const LLVMPIPE_LOOP_LIMIT: u32 = 65_535;
 
 /// Where the stages stop on llvmpipe: below [`LLVMPIPE_LOOP_LIMIT`] by a margin for the few loops
 /// they do not count.
-pub const LLVMPIPE_LOOP_BUDGET: u32 = 60_000;
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub(crate) const LLVMPIPE_LOOP_BUDGET: u32 = 60_000;
+
+#[cfg(feature = "gpu")]
+include!(concat!(env!("OUT_DIR"), "/mirror_checks.rs"));

@@ -152,7 +152,7 @@ fn frame_uniform_layout() {
     frame.params = distinct(7);
     frame.views[MAX_VIEWS - 1] = distinct(5000);
     let source = "//!include shared/layout.wgsl\n\
-        @group(0) @binding(0) var<uniform> frame: Frame;\n\
+        @group(0) @binding(0) var<uniform> frame: FrameUniform;\n\
         @group(0) @binding(1) var<storage, read_write> out: array<u32>;\n\
         @compute @workgroup_size(1) fn main() {\n\
           out[0] = frame.params.view_count; out[1] = frame.params.pad2;\n\
@@ -177,7 +177,7 @@ fn frame_uniform_layout() {
         got,
         vec![
             frame.params.view_count,
-            frame.params.pad[0],
+            frame.params.pad2,
             last.raster.width,
             last.raster.inv_samples.to_bits(),
             last.tile_offset

@@ -1,21 +1,39 @@
-//! Buffer structs and frame layout of the WGSL stages (`shaders/*.wgsl`), twins of the structs in
-//! `shaders/shared/layout.wgsl` (`tests/gpu_layout.rs` round-trips every field through the GPU).
+//! The stage table of the GPU engine and the frame layout of the WGSL stages (`shaders/*.wgsl`);
+//! the buffer structs are in [`crate::mirror`], twins of `shaders/shared/layout.wgsl`.
 //!
 //! ## The stages
 //!
-//! | stage (shader)                         | CPU twin                      | one invocation per          |
-//! |----------------------------------------|-------------------------------|-----------------------------|
-//! | `project.wgsl` (`main` for 3D input, `snap_vertices` for screen input) | `cpu::project::project_and_snap` | view × vertex |
-//! | `bin_count.wgsl`, `scan.wgsl`, `bin_fill.wgsl` | `cpu::bin::bin`; `bin_count` also `cpu::edges::face_orientations` | view × triangle (scan: one workgroup) |
-//! | `coverage.wgsl`                        | `cpu::coverage::coverage`     | pixel; one workgroup per tile |
-//! | `resolve.wgsl`                         | `cpu::resolve::resolve`       | pixel                       |
-//! | `edges.wgsl`                           | `cpu::edges::edges`           | view × edge                 |
-//! | `edge_grad.wgsl`                       | `cpu::edge_grad::edge_grad`   | candidate edge × part; 64 lanes share 2 |
-//! | `gather.wgsl`                          | `cpu::gather::gather`         | view × vertex               |
+//! `STAGES` is the stage table: name, shader, entry point and how the stage dispatches. The
+//! buffers a stage binds are not listed in Rust: `build/shaders.rs` reflects them from the entry
+//! point ([`BINDINGS`](super::BINDINGS), with whether it reads or writes each) and the engine binds
+//! them by WGSL variable name (`gpu::bindings`). For reference, in submission order (buffers by
+//! WGSL name; every stage also reads the frame uniform `frame`):
+//!
+//! | stage | CPU twin | shader (entry point) | reads | writes | one work item per |
+//! |-------|----------|----------------------|-------|--------|-------------------|
+//! | `project` | `project_and_snap`, `src/cpu/project.rs` | `project.wgsl` (`main`) | `cameras`, `positions` | `screen`, `snapped` | view × vertex |
+//! | `snap` (screen input) | `snap`, `src/cpu/project.rs` | `project.wgsl` (`snap_vertices`) | `screen` | `snapped` | view × vertex |
+//! | `bin_count` | `bin`, `src/cpu/bin.rs`; `face_orientations`, `src/cpu/edges.rs` | `bin_count.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `status` | `counts`, `status`, `bins`, `classes`, `occluders` | view × triangle |
+//! | `scan` | `bin`, `src/cpu/bin.rs` | `scan.wgsl` | `counts` | `bins`, `status` | frame (one workgroup) |
+//! | `bin_fill` | `bin`, `src/cpu/bin.rs` | `bin_fill.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `bins`, `classes` | `counts`, `bins`, `occluders` | view × triangle |
+//! | `coverage` | `coverage`, `src/cpu/coverage.rs` | `coverage.wgsl` | `snapped`, `triangles`, `bins`, `status` | `masks`, `status` | tile (a workgroup) |
+//! | `resolve` | `resolve`, `src/cpu/resolve.rs` | `resolve.wgsl` | `masks` | `image` | pixel |
+//! | `edges` | `edges`, `src/cpu/edges.rs` | `edges.wgsl` | `screen`, `triangles`, `edges`, `edge_faces`, `classes`, `status` | `classes`, `status` | view × edge |
+//! | `loss` (step) | `squared_error`, `src/loss.rs` | `loss.wgsl` | `image`, `target_image` | `d_image`, `tile_losses` | tile (a workgroup) |
+//! | `edge_grad_args` (fused step) | — | `edge_grad.wgsl` (`args`) | `status` | `status`, `dispatch_args` | frame (one invocation) |
+//! | `edge_grad` | `edge_grad`, `src/cpu/edge_grad.rs` | `edge_grad.wgsl` (`main`) | `screen`, `occluders`, `edges`, `bins`, `classes`, `d_image`, `status` | `partials`, `status` | candidate edge × part; 64 lanes share 2 |
+//! | `edge_sum` | `edge_grad` (its sum over an edge), `src/cpu/edge_grad.rs` | `edge_sum.wgsl` | `screen`, `edges`, `classes`, `partials`, `status` | `slots` | view × edge |
+//! | `gather` | `gather`, `src/cpu/gather.rs` | `gather.wgsl` | `edges`, `vertex_edges`, `slots` | `grads` | view × vertex |
+//!
+//! Uploaded by the host: `frame`, `screen` or `positions` and `cameras`, `d_image` (backward),
+//! `target_image` (step), and the topology (`triangles`, `edges`, `edge_faces`, `vertex_edges`);
+//! cleared by the encoder: `counts` and `status` (forward), the backward's `status` counters. The
+//! engine records each submission this way (`record.rs`), and a test checks that every buffer a
+//! stage reads was uploaded, cleared or written by an earlier stage.
 //!
 //! All views of a frame go through each stage in one dispatch: per-view buffers are concatenated
 //! (screen vertices `view · V + v`, edge slots `view · E + e`, pixels and tiles at the offsets of
-//! [`GpuView`]), and the frame uniform ([`FrameUniform`]) holds every view's constants.
+//! [`GpuView`]), and the frame uniform ([`FrameUniform`](crate::mirror::FrameUniform)) holds every view's constants.
 //!
 //! ## Tile size
 //!
@@ -30,7 +48,154 @@
 //! that contains the pixel. So GPU and CPU agree bit for bit on coverage, and the same triangles
 //! occlude the same segments, whatever tile sizes either picks.
 
-use crate::mirror::{GpuView, RasterParams, MAX_GPU_TILE_SIZE};
+use crate::mirror::{GpuView, RasterParams, EDGE_GRAD_ITEMS_PER_WORKGROUP, MAX_GPU_TILE_SIZE};
+
+/// A stage of the GPU engine: one compute entry point (see [`STAGES`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Stage {
+    Project,
+    Snap,
+    BinCount,
+    Scan,
+    BinFill,
+    Coverage,
+    Resolve,
+    Edges,
+    Loss,
+    EdgeGradArgs,
+    EdgeGrad,
+    EdgeSum,
+    Gather,
+}
+
+/// How a stage's work items become workgroups (its `@workgroup_size` is reflected at build time,
+/// [`super::WORKGROUP_SIZES`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Grid {
+    /// One work item per invocation: `ceil(items / workgroup size)` workgroups.
+    PerInvocation,
+    /// One work item per workgroup (the workgroup's invocations share it).
+    PerWorkgroup,
+    /// This many work items per workgroup.
+    ItemsPerWorkgroup(u32),
+}
+
+/// One entry of the stage table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StageInfo {
+    /// The stage.
+    pub stage: Stage,
+    /// Its name in timings, labels and recordings.
+    pub name: &'static str,
+    /// Its shader, a path under `shaders/`.
+    pub shader: &'static str,
+    /// Its entry point in the shader.
+    pub entry_point: &'static str,
+    /// How it dispatches.
+    pub grid: Grid,
+}
+
+/// The stage table, in [`Stage`] order. The buffers a stage binds are the variables its entry point
+/// uses, reflected at build time ([`super::BINDINGS`]) and looked up by name (`gpu::bindings`).
+pub(crate) const STAGES: [StageInfo; 13] = [
+    StageInfo {
+        stage: Stage::Project,
+        name: "project",
+        shader: "project.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Snap,
+        name: "snap",
+        shader: "project.wgsl",
+        entry_point: "snap_vertices",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::BinCount,
+        name: "bin_count",
+        shader: "bin_count.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo { stage: Stage::Scan, name: "scan", shader: "scan.wgsl", entry_point: "main", grid: Grid::PerWorkgroup },
+    StageInfo {
+        stage: Stage::BinFill,
+        name: "bin_fill",
+        shader: "bin_fill.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Coverage,
+        name: "coverage",
+        shader: "coverage.wgsl",
+        entry_point: "main",
+        grid: Grid::PerWorkgroup,
+    },
+    StageInfo {
+        stage: Stage::Resolve,
+        name: "resolve",
+        shader: "resolve.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Edges,
+        name: "edges",
+        shader: "edges.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo { stage: Stage::Loss, name: "loss", shader: "loss.wgsl", entry_point: "main", grid: Grid::PerWorkgroup },
+    StageInfo {
+        stage: Stage::EdgeGradArgs,
+        name: "edge_grad_args",
+        shader: "edge_grad.wgsl",
+        entry_point: "args",
+        grid: Grid::PerWorkgroup,
+    },
+    StageInfo {
+        stage: Stage::EdgeGrad,
+        name: "edge_grad",
+        shader: "edge_grad.wgsl",
+        entry_point: "main",
+        grid: Grid::ItemsPerWorkgroup(EDGE_GRAD_ITEMS_PER_WORKGROUP),
+    },
+    StageInfo {
+        stage: Stage::EdgeSum,
+        name: "edge_sum",
+        shader: "edge_sum.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Gather,
+        name: "gather",
+        shader: "gather.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+];
+
+impl Stage {
+    /// Every stage, in table order.
+    pub const ALL: [Stage; 13] = {
+        let mut all = [Stage::Project; 13];
+        let mut i = 0;
+        while i < STAGES.len() {
+            all[i] = STAGES[i].stage;
+            i += 1;
+        }
+        all
+    };
+
+    /// The stage's entry of [`STAGES`].
+    pub fn info(self) -> &'static StageInfo {
+        &STAGES[self as usize]
+    }
+}
 
 /// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
 /// workgroup).
@@ -74,7 +239,8 @@ impl FrameLayout {
                 raster,
                 pixel_offset: pixels.min(u32::MAX as u64) as u32,
                 tile_offset: tiles.min(u32::MAX as u64) as u32,
-                pad: [0; 2],
+                pad0: 0,
+                pad1: 0,
             });
             pixels += raster.pixel_count() as u64;
             tiles += raster.tile_count() as u64;

@@ -1,7 +1,7 @@
 //! Back-face skipping: the boxes that hold a mesh's oriented boundary in one view, outside which
 //! the triangles of negative snapped area add no sample.
 
-use crate::mirror::INVALID_SNAPPED;
+use crate::mirror::INVALID_SNAPPED_VERTEX;
 use crate::scene::mesh::Topology;
 
 /// Boxes (fixed-point units, `[xmin, ymin, xmax, ymax]`, closed) that hold the oriented boundary
@@ -38,7 +38,7 @@ impl BackFaceSkip {
     /// The skip for `topology` seen with these snapped vertices, or `None` (no skip) when a
     /// vertex is clipped.
     pub fn new(topology: &Topology, snapped: &[[i32; 2]]) -> Option<BackFaceSkip> {
-        if snapped.contains(&INVALID_SNAPPED) {
+        if snapped.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
         let components = topology.boundary_components();
@@ -185,7 +185,7 @@ mod tests {
         let sphere = crate::scene::shapes::icosphere(1);
         let mut snapped = vec![[5, 5]; sphere.positions().len()];
         assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_some());
-        snapped[3] = INVALID_SNAPPED;
+        snapped[3] = INVALID_SNAPPED_VERTEX;
         assert!(BackFaceSkip::new(sphere.topology(), &snapped).is_none());
     }
 }

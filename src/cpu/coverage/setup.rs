@@ -4,7 +4,7 @@
 use super::back_face::BackFaceSkip;
 use super::bands::Band;
 use super::triangle::{area2, is_top_left, SnappedTriangle};
-use crate::mirror::{RasterParams, INVALID_SNAPPED};
+use crate::mirror::{RasterParams, INVALID_SNAPPED_VERTEX};
 
 /// What the per-triangle pass of [`coverage`](super::coverage) counts on the way (for the tile size of the `bin`
 /// stage, [`bin::tile_size`](crate::cpu::bin::tile_size), and the render statistics).
@@ -128,8 +128,8 @@ impl SetupPass<'_> {
         let mut summary = TriangleSummary::default();
         for tri in chunk {
             let v = tri.map(|i| snapped[i as usize]);
-            // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
-            if v[0][0] == INVALID_SNAPPED[0] || v[1][0] == INVALID_SNAPPED[0] || v[2][0] == INVALID_SNAPPED[0] {
+            // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
+            if v[0][0] == INVALID_SNAPPED_VERTEX[0] || v[1][0] == INVALID_SNAPPED_VERTEX[0] || v[2][0] == INVALID_SNAPPED_VERTEX[0] {
                 summary.culled += 1;
                 continue;
             }

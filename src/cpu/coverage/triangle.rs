@@ -2,7 +2,7 @@
 //! its samples in a band (sample by sample, or row by row with exact spans).
 
 use super::bands::Band;
-use crate::mirror::{RasterParams, INVALID_SNAPPED};
+use crate::mirror::{RasterParams, INVALID_SNAPPED_VERTEX};
 
 /// A triangle snapped to the fixed-point grid, counter-clockwise in the edge-function sense
 /// (positive area), with its top-left biases. `None` for culled or zero-area triangles.
@@ -18,7 +18,7 @@ impl SnappedTriangle {
     /// The snapped triangle `tri`; `None` when a vertex is clipped or the snapped area is zero.
     pub fn new(snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<SnappedTriangle> {
         let s = tri.map(|i| snapped[i as usize]);
-        if s.contains(&INVALID_SNAPPED) {
+        if s.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
         let mut v = s.map(|p| [p[0] as i64, p[1] as i64]);
