@@ -22,7 +22,9 @@ use std::time::Instant;
 use diffsil::gpu::GpuOptions;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
+use diffsil::pose::fit::{
+    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage,
+};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::Backend;
 use diffsil::{Image, RenderSettings, Renderer};
@@ -171,7 +173,13 @@ fn fit(model: &SkinnedMesh, o: &Options, pictures: bool, quiet: bool) -> Result<
     let targets = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
 
     let rest = Pose::rest(model.joint_count());
-    let mut fit = PoseFit::new(model.clone(), cameras, targets.clone(), renderer, &rest, o.lr, o.lambda)?;
+    let mut fit = PoseFit::new(
+        model.clone(),
+        cameras,
+        targets.clone(),
+        renderer,
+        FitSettings { initial: Some(rest.clone()), learning_rate: o.lr, lambda: o.lambda },
+    )?;
     let backend = fit.renderer().backend_name();
     let before = if pictures { Some(fit.render()?) } else { None };
     fit.set_pose_prior(if o.plain { 0.0 } else { o.prior })?;

@@ -31,7 +31,7 @@ use std::time::Instant;
 
 use diffsil::gpu::GpuOptions;
 use diffsil::reference::oracle;
-use diffsil::{shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec3};
+use diffsil::{shapes, Backend, Image, Mesh, Orbit, RenderSettings, Renderer, ScreenView, Topology};
 use glam::{DVec2, Vec2};
 
 /// `--help` text.
@@ -200,15 +200,8 @@ impl Scene {
     /// half-field); errors if one does not.
     pub fn new(mesh: &Mesh, resolution: u32, azimuth: f32, elevation: f32) -> Result<Scene, String> {
         let mesh = mesh.normalized(1.0);
-        let camera = Camera::orbit(
-            Vec3::ZERO,
-            azimuth.to_radians(),
-            elevation.to_radians(),
-            2.7,
-            50f32.to_radians(),
-            resolution,
-            resolution,
-        );
+        let orbit = Orbit { azimuth: azimuth.to_radians(), elevation: elevation.to_radians(), ..Orbit::default() };
+        let camera = orbit.camera(resolution, resolution);
         camera.validate().map_err(|e| e.to_string())?;
         let params = camera.params();
         let mut screen = Vec::with_capacity(mesh.positions().len());
