@@ -30,9 +30,10 @@
 //! The method answers all three, with the same settings for every resolution and supersampling:
 //!
 //! 1. **Coarse to fine.** `E_sl` compares the rendered and target silhouettes blurred by the
-//!    same Gaussian ([`loss::blurred_squared_error`]), whose standard deviation is a fraction of
-//!    the image height (so every resolution sees the same blurred picture), shrinking in stages
-//!    to no blur ([`Schedule`]). Blurred silhouettes attract from farther away.
+//!    same Gaussian ([`loss::blurred_squared_error`](crate::loss::blurred_squared_error)), whose
+//!    standard deviation is a fraction of the image height (so every resolution sees the same
+//!    blurred picture), shrinking in stages to no blur ([`Schedule`]). Blurred silhouettes
+//!    attract from farther away.
 //! 2. **Multiple hypotheses.** The fit starts from several initial poses ([`stride_hypotheses`]:
 //!    the rest pose, and the legs in a small stride one way and the other), runs each for the
 //!    same few steps of the coarsest stage, and keeps the one with the lowest energy `E`

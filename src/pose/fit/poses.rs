@@ -24,9 +24,10 @@ pub fn per_vertex_error(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter().zip(b).map(|(p, q)| (*p - *q).length() as f64).sum::<f64>() / a.len() as f64
 }
 
-/// Starting poses for [`PoseFit::run`]: the rest pose, and, when the skeleton has a pair of legs,
-/// the rest pose with the legs in a stride of `angle` radians each way (one leg swung forward
-/// and the other back by `angle` about the axis through both hips, then the other way round).
+/// Starting poses for [`PoseFit::run`](super::PoseFit::run): the rest pose, and, when the
+/// skeleton has a pair of legs, the rest pose with the legs in a stride of `angle` radians each
+/// way (one leg swung forward and the other back by `angle` about the axis through both hips,
+/// then the other way round).
 ///
 /// The legs are the mirrored pair of sibling joints nearest the root: two children of one joint
 /// with subtrees of the same size whose rest positions are equally far from their parent (within
