@@ -23,113 +23,62 @@
 //! difference, on one blue–white–red scale per row) and each map as its own PNG. The cosine
 //! similarity and relative error of (a) against (b) are printed per motion.
 //!
-//! This file is also compiled into `tests/gradient_maps.rs`, which checks its functions.
+//! This file is also compiled into `tests/examples/gradient_maps.rs`, which checks its functions.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use diffsil::gpu::GpuOptions;
+use clap::Parser;
 use diffsil::reference::oracle;
-use diffsil::{shapes, Backend, Camera, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec3};
+use diffsil::{shapes, Image, Mesh, Orbit, RenderSettings, Renderer, ScreenView, Topology};
 use glam::{DVec2, Vec2};
 
-/// `--help` text.
-pub const HELP: &str = "\
-gradient_maps: per-pixel gradient images dI(i,j)/dt for three motions of a silhouette
-(translate right, rotate anticlockwise about the view axis, scale up), by diffsil's analytic
-backward and by central finite differences of the exact covered area (paper Fig. 6)
+mod common;
+pub use common::BackendName;
+use common::{elevation, finite};
 
-usage: gradient_maps [options]
-
-options:
-  --mesh PATH          .obj, .gltf or .glb to render (default: the built-in lumpy blob,
-                       diffsil::shapes::blob(24, 48)); normalised to radius 1
-  --resolution N       image side in pixels, 8 to 1024 (default 128); the analytic maps need
-                       about (2·longest projected edge + 3)² backward passes
-  --azimuth DEG        camera azimuth about +y, degrees (default 30)
-  --elevation DEG      camera elevation, degrees (default 20)
-  --backend NAME       cpu, gpu or auto: the backend of the forward and of the analytic backward
-                       (default cpu; gpu takes its adapter from DIFFSIL_ADAPTER / WGPU_BACKEND)
-  --out DIR            where the PNGs go (default gradient_maps_out)
-  -h, --help           this text
-
-output: DIR/gradient_maps.png (rows: translate, rotate, scale; columns: silhouette, analytic,
+/// Command-line options (`gradient_maps --help`).
+#[derive(Clone, Debug, PartialEq, Parser)]
+#[command(
+    name = "gradient_maps",
+    about = "Per-pixel gradient images dI(i,j)/dt for three motions of a silhouette (translate right, \
+             rotate anticlockwise about the view axis, scale up), by diffsil's analytic backward and \
+             by central finite differences of the exact covered area (paper Fig. 6)",
+    after_help = "\
+Output: DIR/gradient_maps.png (rows: translate, rotate, scale; columns: silhouette, analytic,
 finite difference, analytic − finite difference; blue < 0 < red, one scale per row, shared by
 the three maps of the row), DIR/silhouette.png and DIR/<motion>_<analytic|fd|difference>.png;
 on stdout, per motion, the cosine similarity and relative error of analytic against finite
-difference.";
-
-/// Command-line options.
-#[derive(Clone, Debug, PartialEq)]
+difference."
+)]
 pub struct Options {
-    /// Mesh file, or `None` for the built-in blob.
+    /// .obj, .gltf or .glb to render, normalised to radius 1 [default: the built-in lumpy blob,
+    /// diffsil::shapes::blob(24, 48)]
+    #[arg(long, value_name = "PATH")]
     pub mesh: Option<PathBuf>,
-    /// Image side, pixels.
+    /// Image side in pixels, 8 to 1024; the analytic maps need about
+    /// (2·longest projected edge + 3)² backward passes
+    #[arg(long, value_name = "N", default_value_t = 128, value_parser = clap::value_parser!(u32).range(8..=1024))]
     pub resolution: u32,
-    /// Camera azimuth, degrees.
+    /// Camera azimuth about +y, degrees
+    #[arg(long, value_name = "DEG", default_value_t = 30.0, value_parser = finite, allow_negative_numbers = true)]
     pub azimuth: f32,
-    /// Camera elevation, degrees.
+    /// Camera elevation, degrees, strictly between -90 and 90
+    #[arg(long, value_name = "DEG", default_value_t = 20.0, value_parser = elevation, allow_negative_numbers = true)]
     pub elevation: f32,
-    /// `cpu`, `gpu` or `auto`.
-    pub backend: String,
-    /// Output folder.
+    /// The backend of the forward and of the analytic backward
+    #[arg(long, value_name = "NAME", value_enum, default_value_t = BackendName::Cpu)]
+    pub backend: BackendName,
+    /// Where the PNGs go
+    #[arg(long, value_name = "DIR", default_value = "gradient_maps_out")]
     pub out: PathBuf,
 }
 
 impl Default for Options {
+    /// The options of a command line without any.
     fn default() -> Self {
-        Options {
-            mesh: None,
-            resolution: 128,
-            azimuth: 30.0,
-            elevation: 20.0,
-            backend: "cpu".into(),
-            out: "gradient_maps_out".into(),
-        }
-    }
-}
-
-/// Parses the arguments (without the program name). `Ok(None)` means `--help` was asked for.
-pub fn parse_args(args: impl IntoIterator<Item = String>) -> Result<Option<Options>, String> {
-    let mut o = Options::default();
-    let mut args = args.into_iter();
-    while let Some(flag) = args.next() {
-        if flag == "-h" || flag == "--help" {
-            return Ok(None);
-        }
-        let value = args.next().ok_or(format!("{flag} needs a value (see --help)"))?;
-        let bad = |e: &dyn std::fmt::Display| format!("{flag} {value}: {e}");
-        match flag.as_str() {
-            "--mesh" => o.mesh = Some(value.into()),
-            "--resolution" => o.resolution = value.parse().map_err(|e| bad(&e))?,
-            "--azimuth" => o.azimuth = value.parse().map_err(|e| bad(&e))?,
-            "--elevation" => o.elevation = value.parse().map_err(|e| bad(&e))?,
-            "--backend" => o.backend = value,
-            "--out" => o.out = value.into(),
-            _ => return Err(format!("unknown option {flag} (see --help)")),
-        }
-    }
-    if !(8..=1024).contains(&o.resolution) {
-        return Err(format!("--resolution {}: use 8 to 1024 pixels", o.resolution));
-    }
-    if !(o.azimuth.is_finite() && o.elevation.is_finite() && o.elevation.abs() < 90.0) {
-        return Err(format!(
-            "--azimuth {} --elevation {}: use finite degrees, elevation strictly between -90 and 90",
-            o.azimuth, o.elevation
-        ));
-    }
-    backend(&o.backend)?;
-    Ok(Some(o))
-}
-
-/// The backend named `cpu`, `gpu` or `auto`.
-pub fn backend(name: &str) -> Result<Backend, String> {
-    match name {
-        "cpu" => Ok(Backend::Cpu),
-        "gpu" => Ok(Backend::Gpu(GpuOptions::from_env())),
-        "auto" => Ok(Backend::Auto),
-        _ => Err(format!("--backend {name}: use cpu, gpu or auto")),
+        Options::parse_from(["gradient_maps"])
     }
 }
 
@@ -200,15 +149,8 @@ impl Scene {
     /// half-field); errors if one does not.
     pub fn new(mesh: &Mesh, resolution: u32, azimuth: f32, elevation: f32) -> Result<Scene, String> {
         let mesh = mesh.normalized(1.0);
-        let camera = Camera::orbit(
-            Vec3::ZERO,
-            azimuth.to_radians(),
-            elevation.to_radians(),
-            2.7,
-            50f32.to_radians(),
-            resolution,
-            resolution,
-        );
+        let orbit = Orbit { azimuth: azimuth.to_radians(), elevation: elevation.to_radians(), ..Orbit::default() };
+        let camera = orbit.camera(resolution, resolution);
         camera.validate().map_err(|e| e.to_string())?;
         let params = camera.params();
         let mut screen = Vec::with_capacity(mesh.positions().len());
@@ -656,26 +598,20 @@ fn write_pictures(
 }
 
 fn main() {
-    if let Err(e) = run() {
+    let o = Options::parse();
+    if let Err(e) = run(&o) {
         eprintln!("gradient_maps: {e}");
         std::process::exit(1);
     }
 }
 
-fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(o) = parse_args(std::env::args().skip(1))? else {
-        println!("{HELP}");
-        return Ok(());
-    };
+fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
     let (mesh, name) = match &o.mesh {
-        Some(path) => (
-            diffsil::io::gltf::load_mesh(path)?,
-            path.file_name().map_or("mesh".into(), |s| s.to_string_lossy().into_owned()),
-        ),
+        Some(path) => common::load_mesh(path)?,
         None => (builtin_mesh(), "built-in blob".to_string()),
     };
     let scene = Scene::new(&mesh, o.resolution, o.azimuth, o.elevation)?;
-    let mut renderer = Renderer::with_backend(RenderSettings::default(), backend(&o.backend)?)?;
+    let mut renderer = Renderer::with_backend(RenderSettings::default(), o.backend.backend())?;
     println!(
         "{name}: {} vertices, {} triangles; {n}x{n}, F = 4, azimuth {}°, elevation {}°; backend {}",
         mesh.positions().len(),

@@ -2,7 +2,9 @@
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
+use diffsil::pose::fit::{
+    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage,
+};
 use diffsil::pose::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
 
@@ -24,8 +26,7 @@ fn scene(resolution: u32, seed: u64) -> (SkinnedMesh, Vec<Camera>, Vec<Image>, V
 fn fit_from_rest(resolution: u32, seed: u64) -> (PoseFit, SkinnedMesh, Vec<Vec3>) {
     let (model, cameras, targets, truth_vertices) = scene(resolution, seed);
     let renderer = Renderer::new(RenderSettings::default()).unwrap();
-    let rest = Pose::rest(model.joint_count());
-    let fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).unwrap();
+    let fit = PoseFit::new(model.clone(), cameras, targets, renderer, FitSettings::default()).unwrap();
     (fit, model, truth_vertices)
 }
 
@@ -79,10 +80,15 @@ fn truth_in_two_views() -> (SkinnedMesh, Pose, Vec<Camera>, Vec<Image>, Renderer
     (model, truth, cameras, targets, renderer)
 }
 
+/// Settings starting at `initial`, without the self-intersection term.
+fn settings(initial: &Pose, learning_rate: f32) -> FitSettings {
+    FitSettings { initial: Some(initial.clone()), learning_rate, lambda: 0.0 }
+}
+
 #[test]
 fn energy_is_zero_at_the_truth_and_blur_is_validated() {
     let (model, truth, cameras, targets, renderer) = truth_in_two_views();
-    let mut fit = PoseFit::new(model, cameras, targets, renderer, &truth, 0.02, 0.0).unwrap();
+    let mut fit = PoseFit::new(model, cameras, targets, renderer, settings(&truth, 0.02)).unwrap();
     assert_eq!(fit.energy().unwrap(), 0.0);
     fit.set_blur(0.05).unwrap();
     assert_eq!(fit.blur(), 0.05);
@@ -98,7 +104,7 @@ fn energy_is_zero_at_the_truth_and_blur_is_validated() {
 #[test]
 fn the_pose_prior_adds_to_the_energy_and_pulls_offsets_to_rest() {
     let (model, truth, cameras, targets, renderer) = truth_in_two_views();
-    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &truth, 0.01, 0.0).unwrap();
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, settings(&truth, 0.01)).unwrap();
     assert!(matches!(fit.set_pose_prior(-1.0), Err(Error::InvalidSettings(_))));
     assert!(fit.set_pose_prior(f32::NAN).is_err());
     fit.set_pose_prior(0.5).unwrap();
@@ -190,11 +196,12 @@ fn fit_rejects_mismatched_targets_and_bad_rates() {
     let rest = Pose::rest(model.joint_count());
     let renderer = || Renderer::new(RenderSettings::default()).unwrap();
     let one = vec![Image::filled(16, 16, 0.0)];
-    let err = PoseFit::new(model.clone(), cameras.clone(), one, renderer(), &rest, 0.01, 0.0).err().unwrap();
+    let err = PoseFit::new(model.clone(), cameras.clone(), one, renderer(), settings(&rest, 0.01)).err().unwrap();
     assert!(matches!(err, Error::ViewCountMismatch { .. }), "{err}");
     let wrong_size = vec![Image::filled(8, 16, 0.0); 2];
-    let err = PoseFit::new(model.clone(), cameras.clone(), wrong_size, renderer(), &rest, 0.01, 0.0).err().unwrap();
+    let err =
+        PoseFit::new(model.clone(), cameras.clone(), wrong_size, renderer(), settings(&rest, 0.01)).err().unwrap();
     assert!(matches!(err, Error::SizeMismatch { .. }), "{err}");
     let targets = vec![Image::filled(16, 16, 0.0); 2];
-    assert!(PoseFit::new(model, cameras, targets, renderer(), &rest, f32::NAN, 0.0).is_err());
+    assert!(PoseFit::new(model, cameras, targets, renderer(), settings(&rest, f32::NAN)).is_err());
 }

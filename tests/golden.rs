@@ -6,7 +6,7 @@ mod common;
 
 use common::scenes::{self, Scene3d};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{framing_cameras, random_pose, PoseFit};
+use diffsil::pose::fit::{framing_cameras, random_pose, FitSettings, PoseFit};
 use diffsil::pose::skin::Pose;
 use diffsil::{Image, Mesh, RenderSettings, Renderer, Targets, Vec2, Vec3};
 
@@ -119,8 +119,8 @@ fn pose_fit_hash() -> u64 {
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
     let truth_mesh = Mesh::with_topology(model.skin(&truth).unwrap(), model.mesh.topology().clone()).unwrap();
     let targets = renderer.render(&truth_mesh, &cameras).unwrap().images().to_vec();
-    let rest = Pose::rest(model.joint_count());
-    let mut fit = PoseFit::new(model, cameras, targets, renderer, &rest, 0.02, 1e-7).unwrap();
+    let settings = FitSettings { initial: Some(Pose::rest(model.joint_count())), learning_rate: 0.02, lambda: 1e-7 };
+    let mut fit = PoseFit::new(model, cameras, targets, renderer, settings).unwrap();
     let mut h = Hash::new();
     for _ in 0..5 {
         let report = fit.step().unwrap();

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use common::fd::{self, Rng};
 use common::gpu::gpu_or_skip;
 use common::scenes::{self, Scene2d, Scene3d};
-use diffsil::{Camera, Frame, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec2, Vec3};
+use diffsil::{Camera, Frame, Image, Mesh, Orbit, RenderSettings, Renderer, ScreenView, Topology, Vec2, Vec3};
 
 fn gpu_renderer(name: &str, settings: RenderSettings) -> Option<Renderer> {
     let ctx = gpu_or_skip(name)?;
@@ -300,7 +300,14 @@ fn random_world_scenes_match_the_cpu() {
                 // Sometimes close enough that the mesh is larger than the screen or crosses the
                 // near plane (culled triangles).
                 let dist = [3.2, 1.6, 1.05][(rng.next_u64() % 3) as usize];
-                let mut cam = Camera::orbit(Vec3::new(0.05, -0.02, 0.03), az, el, dist, 0.9, w, h);
+                let mut cam = Orbit {
+                    target: Vec3::new(0.05, -0.02, 0.03),
+                    azimuth: az,
+                    elevation: el,
+                    distance: dist,
+                    fov_y: 0.9,
+                }
+                .camera(w, h);
                 if rng.uniform() < 0.25 {
                     cam = Camera::orthographic(cam.eye, cam.target, rng.range(1.0, 4.0) as f32, w, h);
                 }

@@ -5,12 +5,14 @@
 mod common;
 
 use common::gpu::gpu_or_skip;
-use diffsil::{loss, shapes, Camera, Error, Image, Mesh, RenderSettings, Renderer, Targets, Vec3};
+use diffsil::{loss, shapes, Camera, Error, Image, Mesh, Orbit, RenderSettings, Renderer, Targets, Vec3};
 
 fn cameras() -> Vec<Camera> {
     vec![
-        Camera::orbit(Vec3::ZERO, 0.0, 0.2, 3.0, 45f32.to_radians(), 48, 40),
-        Camera::orbit(Vec3::ZERO, 1.7, -0.3, 3.2, 40f32.to_radians(), 33, 57),
+        Orbit { azimuth: 0.0, elevation: 0.2, distance: 3.0, fov_y: 45f32.to_radians(), ..Orbit::default() }
+            .camera(48, 40),
+        Orbit { azimuth: 1.7, elevation: -0.3, distance: 3.2, fov_y: 40f32.to_radians(), ..Orbit::default() }
+            .camera(33, 57),
     ]
 }
 

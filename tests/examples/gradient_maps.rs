@@ -3,19 +3,18 @@
 //! silhouette, the lattice seeds against one-hot seeds, the GPU backend against the CPU one, and
 //! bad command lines.
 
-mod common;
-
 #[allow(dead_code)]
-#[path = "../examples/gradient_maps.rs"]
-mod gradient_maps;
+#[path = "../../examples/gradient_maps.rs"]
+mod example;
 
 use std::sync::Arc;
 
+use crate::common;
 use common::scenes::{self, Scene2d};
 use diffsil::mirror::ScreenVertex;
 use diffsil::{Image, RenderSettings, Renderer, ScreenView, Topology};
+use example::*;
 use glam::DVec2;
-use gradient_maps::*;
 
 /// The example's scene for the built-in mesh at its default view.
 fn builtin(resolution: u32) -> Scene {
@@ -198,20 +197,24 @@ fn colour_map_is_white_at_zero_blue_below_red_above() {
 
 #[test]
 fn bad_command_lines_are_errors_not_panics() {
-    let parse = |args: &[&str]| parse_args(args.iter().map(|s| s.to_string()));
-    assert_eq!(parse(&["--help"]).unwrap(), None);
-    assert_eq!(parse(&[]).unwrap(), Some(Options::default()));
+    use clap::{error::ErrorKind, CommandFactory, Parser};
+    Options::command().debug_assert();
+    let parse = |args: &[&str]| Options::try_parse_from(std::iter::once("gradient_maps").chain(args.iter().copied()));
+    assert_eq!(parse(&["--help"]).unwrap_err().kind(), ErrorKind::DisplayHelp);
+    let o = parse(&[]).unwrap();
+    assert_eq!(o, Options::default());
+    assert_eq!((o.resolution, o.azimuth, o.elevation, o.backend), (128, 30.0, 20.0, BackendName::Cpu));
     for (args, says) in [
-        (&["--resolution"][..], "needs a value"),
-        (&["--resolution", "0"], "8 to 1024"),
-        (&["--resolution", "-3"], "--resolution -3"),
-        (&["--resolution", "4096"], "8 to 1024"),
-        (&["--backend", "tpu"], "cpu, gpu or auto"),
-        (&["--elevation", "90"], "elevation"),
+        (&["--resolution"][..], "a value is required for '--resolution <N>'"),
+        (&["--resolution", "0"], "8..=1024"),
+        (&["--resolution", "-3"], "unexpected argument '-3'"),
+        (&["--resolution", "4096"], "8..=1024"),
+        (&["--backend", "tpu"], "[possible values: cpu, gpu, auto]"),
+        (&["--elevation", "90"], "strictly between -90 and 90"),
         (&["--azimuth", "NaN"], "finite"),
-        (&["--frobnicate", "1"], "unknown option"),
+        (&["--frobnicate", "1"], "unexpected argument '--frobnicate'"),
     ] {
-        let error = parse(args).unwrap_err();
+        let error = parse(args).unwrap_err().to_string();
         assert!(error.contains(says), "{args:?}: {error}");
     }
     let missing = diffsil::io::gltf::load_mesh("no/such/mesh.obj").unwrap_err();
