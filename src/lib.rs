@@ -103,7 +103,7 @@
 //! | [`loss`], [`optim`] | squared error (paper Eq. 18), soft IoU, blurred squared error, each with `∂L/∂I`; Adam |
 //! | [`io`] | OBJ loading, PNG images and targets, welding; `io::gltf` (feature `pose`): glTF/GLB static and skinned meshes |
 //! | `pose` (feature `pose`) | `pose::skin` (linear-blend skinning and its backward), `pose::figure` (a built-in 24-joint figure), `pose::self_intersection` (paper Eq. 19), `pose::fit` (pose fitting, paper §4) |
-//! | [`reference`] | the per-segment closed form and the exact-area oracle |
+//! | [`reference`](mod@reference) | the per-segment closed form and the exact-area oracle |
 //! | [`random`] | a seeded generator for reproducible scenes |
 //! | [`cpu`], `gpu`, [`mirror`] | the two engines' stages and the buffer layouts they share with WGSL |
 //!

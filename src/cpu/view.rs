@@ -22,8 +22,8 @@ pub struct ViewState {
     pub culled_triangles: u32,
 }
 
-/// Forward of one view from screen vertices and their snapped positions ([`project::snap`], or both
-/// from [`project::project_and_snap`]): returns the state and the image.
+/// Forward of one view from screen vertices and their snapped positions ([`super::project::snap`], or both
+/// from [`super::project::project_and_snap`]): returns the state and the image.
 pub fn forward_view(
     mut params: RasterParams,
     screen: Vec<ScreenVertex>,

@@ -53,7 +53,7 @@ pub struct Step {
 
 impl Renderer {
     /// Renders `mesh` from each camera, takes the squared error of each image against its target
-    /// ([`loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
+    /// ([`crate::loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
     /// iteration of a silhouette fit.
     ///
     /// The result equals `render`, `loss::squared_error` per view and `backward` in sequence. On
