@@ -5,10 +5,8 @@
 //!
 //! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_layout`.
 
-mod common;
-
+use crate::common::gpu::gpu_or_skip;
 use bytemuck::Pod;
-use common::gpu::gpu_or_skip;
 use diffsil::gpu::{GpuContext, Readback};
 use diffsil::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use diffsil::mirror::{FrameParams, FrameUniform, GpuView, MAX_VIEWS};

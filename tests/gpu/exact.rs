@@ -8,9 +8,7 @@
 //!
 //! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_exact`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
+use crate::common::gpu::gpu_or_skip;
 use diffsil::gpu::{GpuContext, Readback};
 use diffsil::mirror::RasterParams;
 

@@ -4,9 +4,7 @@
 //! The tests marked `#[ignore]` read the Khronos sample models in `$DIFFSIL_ASSETS`:
 //! `DIFFSIL_ASSETS=../shared/assets cargo test --test gltf_io -- --include-ignored`.
 
-#[path = "common/files.rs"]
-mod files;
-use files::{temp_dir, write};
+use crate::common::files::{temp_dir, write};
 
 use std::path::{Path, PathBuf};
 

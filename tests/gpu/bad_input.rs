@@ -4,12 +4,10 @@
 //!
 //! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_bad_input`.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::gpu::gpu_or_skip;
-use common::scenes;
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes;
 use diffsil::{
     Camera, Error, Frame, Image, Mesh, RenderSettings, RenderStats, Renderer, Result, ScreenView, Topology, Vec2, Vec3,
 };
@@ -30,7 +28,7 @@ fn ones(frame: &Frame) -> Vec<Image> {
 }
 
 fn weights(frame: &Frame, seed: u64) -> Vec<Image> {
-    let mut rng = common::fd::Rng::new(seed);
+    let mut rng = crate::common::fd::Rng::new(seed);
     frame
         .images()
         .iter()

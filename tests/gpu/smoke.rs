@@ -2,9 +2,7 @@
 //! readback, error handling) with `shaders/smoke.wgsl`. Run on lavapipe with
 //! `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_smoke`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
+use crate::common::gpu::gpu_or_skip;
 use diffsil::gpu::{self, AdapterChoice, GpuContext, GpuOptions, Readback};
 use diffsil::Error;
 

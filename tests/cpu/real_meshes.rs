@@ -5,13 +5,11 @@
 //! Ignored by default; run with
 //! `DIFFSIL_ASSETS=/work/shared/assets cargo test --test real_meshes -- --include-ignored`.
 
-mod common;
-
 use std::path::PathBuf;
 use std::time::Instant;
 
-use common::fd::{self, FdOptions};
-use common::scenes::Scene3d;
+use crate::common::fd::{self, FdOptions};
+use crate::common::scenes::Scene3d;
 use diffsil::{Camera, Mesh, RenderSettings, Renderer, Vec3};
 
 const TOL: f64 = 1e-3;

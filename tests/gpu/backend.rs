@@ -5,10 +5,8 @@
 //!
 //! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_backend`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
-use common::scenes;
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes;
 use diffsil::gpu::{hardware_gpu_available, GpuOptions};
 use diffsil::{Backend, Camera, Error, Image, RenderSettings, Renderer, ScreenView, Vec2, Vec3};
 
