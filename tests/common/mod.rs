@@ -9,5 +9,6 @@ pub mod files;
 pub mod golden;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod rng;
 pub mod scenes;
 pub mod step;
