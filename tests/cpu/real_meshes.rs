@@ -3,7 +3,7 @@
 //! exact-area oracle along random directions at 64² (`common::fd::check_3d_directions`).
 //!
 //! Ignored by default; run with
-//! `DIFFSIL_ASSETS=/work/shared/assets cargo test --test real_meshes -- --include-ignored`.
+//! `DIFFSIL_ASSETS=/work/shared/assets cargo test --test cpu real_meshes -- --include-ignored`.
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -3,7 +3,7 @@
 //! `Error::GpuLimit` (never a wgpu panic), and a frame is differentiated correctly even after the
 //! renderer has rendered other frames (its GPU state is rebuilt).
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_backend`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu backend::`.
 
 use crate::common::gpu::gpu_or_skip;
 use crate::common::scenes;

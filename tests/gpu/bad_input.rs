@@ -1,8 +1,8 @@
-//! The bad-input table of `tests/bad_input.rs` on the GPU backend: every invalid input is the
+//! The bad-input table of `tests/cpu/bad_input.rs` on the GPU backend: every invalid input is the
 //! same `Error` as on the CPU backend (same message), and every degenerate input renders the same
 //! image (bit for bit), the same statistics and the same gradients (to 1e-5) — without NaN.
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_bad_input`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu bad_input::`.
 
 use std::sync::Arc;
 

@@ -6,7 +6,7 @@
 //!   fused multiply-add) and `orient_f64_sign` (the sign of the CPU's f64 cross product of f32
 //!   points, with every f64 rounding reproduced).
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_exact`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu exact::`.
 
 use crate::common::gpu::gpu_or_skip;
 use crate::common::rng::{Draws, SplitMix64};

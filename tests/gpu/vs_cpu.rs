@@ -9,7 +9,7 @@
 //! screen vertices — and hence the images — are identical on any conforming device. The mean
 //! absolute difference (which the issue allows up to 1e-6) is asserted as well, and measured.
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --release --test gpu_vs_cpu`
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --release --test gpu vs_cpu`
 //! (`--nocapture` prints the measured differences).
 
 use std::sync::Arc;

@@ -30,7 +30,7 @@
 //! triangles overlapping them, so the oracle runs on that window and subset. A difference where
 //! every vertex moves is summed over the pixels a possible silhouette edge touches
 //! ([`OracleLoss::loss_difference`]); every other pixel is wholly covered or wholly empty in both
-//! states. `tests/gradients.rs` checks both shortcuts against whole-image evaluations.
+//! states. `tests/cpu/gradients.rs` checks both shortcuts against whole-image evaluations.
 //!
 //! Reported errors: `‖g − g_fd‖ / ‖g_fd‖` over the full vertex gradient, and `|D − D_fd| / |D_fd|`
 //! for directional derivatives along random directions (all vertices move; directions nearly

@@ -2,7 +2,7 @@
 //! GLB writing and round trips, and clear errors on malformed or unsupported files.
 //!
 //! The tests marked `#[ignore]` read the Khronos sample models in `$DIFFSIL_ASSETS`:
-//! `DIFFSIL_ASSETS=../shared/assets cargo test --test gltf_io -- --include-ignored`.
+//! `DIFFSIL_ASSETS=../shared/assets cargo test --test pose gltf_io -- --include-ignored`.
 
 use crate::common::files::{temp_dir, write};
 
