@@ -129,7 +129,10 @@ impl SetupPass<'_> {
         for tri in chunk {
             let v = tri.map(|i| snapped[i as usize]);
             // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
-            if v[0][0] == INVALID_SNAPPED_VERTEX[0] || v[1][0] == INVALID_SNAPPED_VERTEX[0] || v[2][0] == INVALID_SNAPPED_VERTEX[0] {
+            if v[0][0] == INVALID_SNAPPED_VERTEX[0]
+                || v[1][0] == INVALID_SNAPPED_VERTEX[0]
+                || v[2][0] == INVALID_SNAPPED_VERTEX[0]
+            {
                 summary.culled += 1;
                 continue;
             }

@@ -6,11 +6,10 @@
 //!   fused multiply-add) and `orient_f64_sign` (the sign of the CPU's f64 cross product of f32
 //!   points, with every f64 rounding reproduced).
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_exact`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu exact::`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
+use crate::common::gpu::gpu_or_skip;
+use crate::common::rng::{Draws, SplitMix64};
 use diffsil::gpu::{GpuContext, Readback};
 use diffsil::mirror::RasterParams;
 
@@ -126,39 +125,22 @@ fn run(ctx: &GpuContext, entry: &str, input: &[u32], cases: usize, out_per_case:
     Readback::new("exact readback").submit_and_read(ctx, encoder, &output, cases * out_per_case).unwrap()
 }
 
-/// splitmix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+/// Random i32 with a random magnitude class (small, large, extreme).
+fn i32_any(rng: &mut SplitMix64) -> i32 {
+    let r = rng.next_u64();
+    match r % 6 {
+        0 => [0, 1, -1, i32::MAX, i32::MIN, i32::MIN + 1, 65_535, 65_536, -65_536][(r >> 8) as usize % 9],
+        1 => (r >> 32) as i32 >> 16,
+        _ => (r >> 32) as i32,
     }
+}
 
-    fn uniform(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Random i32 with a random magnitude class (small, large, extreme).
-    fn i32_any(&mut self) -> i32 {
-        let r = self.next();
-        match r % 6 {
-            0 => [0, 1, -1, i32::MAX, i32::MIN, i32::MIN + 1, 65_535, 65_536, -65_536][(r >> 8) as usize % 9],
-            1 => (r >> 32) as i32 >> 16,
-            _ => (r >> 32) as i32,
-        }
-    }
-
-    fn i64_any(&mut self) -> i64 {
-        let r = self.next();
-        match r % 5 {
-            0 => [0, 1, -1, i64::MAX, i64::MIN, 1 << 32, -(1 << 32), u32::MAX as i64][(r >> 8) as usize % 8],
-            1 => self.next() as i64 >> 33,
-            _ => self.next() as i64,
-        }
+fn i64_any(rng: &mut SplitMix64) -> i64 {
+    let r = rng.next_u64();
+    match r % 5 {
+        0 => [0, 1, -1, i64::MAX, i64::MIN, 1 << 32, -(1 << 32), u32::MAX as i64][(r >> 8) as usize % 8],
+        1 => rng.next_u64() as i64 >> 33,
+        _ => rng.next_u64() as i64,
     }
 }
 
@@ -169,8 +151,8 @@ fn words(v: i64) -> [u32; 2] {
 #[test]
 fn int64_products_match_rust() {
     let Some(ctx) = gpu_or_skip("int64_products_match_rust") else { return };
-    let mut rng = Rng(1);
-    let cases: Vec<(i32, i32)> = (0..200_000).map(|_| (rng.i32_any(), rng.i32_any())).collect();
+    let mut rng = SplitMix64::new(1);
+    let cases: Vec<(i32, i32)> = (0..200_000).map(|_| (i32_any(&mut rng), i32_any(&mut rng))).collect();
     let input: Vec<u32> = cases.iter().flat_map(|&(a, b)| [a as u32, b as u32]).collect();
     let out = run(&ctx, "mul", &input, cases.len(), 2);
     for (k, &(a, b)) in cases.iter().enumerate() {
@@ -182,8 +164,8 @@ fn int64_products_match_rust() {
 #[test]
 fn int64_arithmetic_and_comparisons_match_rust() {
     let Some(ctx) = gpu_or_skip("int64_arithmetic_and_comparisons_match_rust") else { return };
-    let mut rng = Rng(2);
-    let mut cases: Vec<(i64, i64)> = (0..100_000).map(|_| (rng.i64_any(), rng.i64_any())).collect();
+    let mut rng = SplitMix64::new(2);
+    let mut cases: Vec<(i64, i64)> = (0..100_000).map(|_| (i64_any(&mut rng), i64_any(&mut rng))).collect();
     cases.extend((0..64).map(|s| (i64::MIN >> s, s)));
     cases.extend((0..64).map(|s| (-1 - (1i64 << (s % 63)), s)));
     let input: Vec<u32> = cases.iter().flat_map(|&(a, b)| [words(a), words(b)].concat()).collect();
@@ -207,19 +189,19 @@ fn int64_arithmetic_and_comparisons_match_rust() {
 #[test]
 fn snap_matches_the_cpu_bit_for_bit() {
     let Some(ctx) = gpu_or_skip("snap_matches_the_cpu_bit_for_bit") else { return };
-    let mut rng = Rng(3);
+    let mut rng = SplitMix64::new(3);
     let mut cases: Vec<(f32, u32)> = Vec::new();
     for f in 1..=16u32 {
         let units = RasterParams::new(1, 1, f, 1.0, 0.0).unwrap().units;
         for _ in 0..4000 {
-            let r = rng.next();
+            let r = rng.next_u64();
             let x = match r % 7 {
                 // Anywhere in the coordinate range, with random magnitude.
-                0 => ((rng.uniform() * 2.0 - 1.0) * diffsil::COORD_LIMIT as f64) as f32,
-                1 => ((rng.uniform() * 2.0 - 1.0) * 2f64.powi((r >> 8) as i32 % 22 - 12)) as f32,
+                0 => ((rng.unit() * 2.0 - 1.0) * diffsil::COORD_LIMIT as f64) as f32,
+                1 => ((rng.unit() * 2.0 - 1.0) * 2f64.powi((r >> 8) as i32 % 22 - 12)) as f32,
                 // Exactly on half units (ties of the rounding), and their neighbours.
                 2 | 3 => {
-                    let k = (rng.next() % (1 << 22)) as i64 - (1 << 21);
+                    let k = (rng.next_u64() % (1 << 22)) as i64 - (1 << 21);
                     let x = ((k as f64 + 0.5) / units as f64) as f32;
                     match r % 3 {
                         0 => x,
@@ -228,8 +210,8 @@ fn snap_matches_the_cpu_bit_for_bit() {
                     }
                 }
                 // Large values where f32 addition of 0.5 rounds.
-                4 => f32::from_bits(0x4B00_0000 + (rng.next() % (1 << 24)) as u32) / units as f32,
-                5 => -(f32::from_bits(0x4A80_0000 + (rng.next() % (1 << 24)) as u32)) / units as f32,
+                4 => f32::from_bits(0x4B00_0000 + (rng.next_u64() % (1 << 24)) as u32) / units as f32,
+                5 => -(f32::from_bits(0x4A80_0000 + (rng.next_u64() % (1 << 24)) as u32)) / units as f32,
                 _ => [0.0, -0.0, 1e-30, -1e-30, 0.5, -0.5, 1.0 / units as f32, f32::MIN_POSITIVE, 1e-45]
                     [r as usize / 7 % 9],
             };
@@ -247,19 +229,22 @@ fn snap_matches_the_cpu_bit_for_bit() {
 #[test]
 fn division_is_correctly_rounded() {
     let Some(ctx) = gpu_or_skip("division_is_correctly_rounded") else { return };
-    let mut rng = Rng(6);
+    let mut rng = SplitMix64::new(6);
     let mut cases: Vec<(f32, f32)> = Vec::new();
     for k in 0..200_000 {
-        let value = |rng: &mut Rng| ((rng.uniform() - 0.5) * 2f64.powi((rng.next() % 60) as i32 - 30)) as f32;
+        let value = |rng: &mut SplitMix64| ((rng.unit() - 0.5) * 2f64.powi((rng.next_u64() % 60) as i32 - 30)) as f32;
         let (a, b) = match k % 5 {
             // Quotients near a rounding tie: a = q·b for a q with a 25th bit.
             0 => {
                 let b = value(&mut rng);
-                let q = f32::from_bits((rng.next() as u32 & 0x007f_ffff) | 0x3f80_0000);
+                let q = f32::from_bits((rng.next_u64() as u32 & 0x007f_ffff) | 0x3f80_0000);
                 (q * b, b)
             }
             1 => (value(&mut rng), [1.0, -3.0, 0.1, 7.0, 1e-3][k / 5 % 5]),
-            2 => (f32::from_bits(rng.next() as u32 & 0x7eff_ffff), f32::from_bits(rng.next() as u32 & 0x7eff_ffff)),
+            2 => (
+                f32::from_bits(rng.next_u64() as u32 & 0x7eff_ffff),
+                f32::from_bits(rng.next_u64() as u32 & 0x7eff_ffff),
+            ),
             _ => (value(&mut rng), value(&mut rng)),
         };
         if b != 0.0 {
@@ -294,14 +279,14 @@ fn ff_value(words: &[u32]) -> f64 {
 #[test]
 fn float_float_arithmetic_is_accurate() {
     let Some(ctx) = gpu_or_skip("float_float_arithmetic_is_accurate") else { return };
-    let mut rng = Rng(5);
+    let mut rng = SplitMix64::new(5);
     let mut cases: Vec<([f32; 2], [f32; 2])> = Vec::new();
     for k in 0..50_000 {
-        let mag = |rng: &mut Rng| 2f64.powi((rng.next() % 40) as i32 - 20) * (rng.uniform() - 0.5);
+        let mag = |rng: &mut SplitMix64| 2f64.powi((rng.next_u64() % 40) as i32 - 20) * (rng.unit() - 0.5);
         let x = mag(&mut rng);
         let y = match k % 4 {
-            0 => x * (1.0 + 1e-6 * (rng.uniform() - 0.5)), // cancellation
-            1 => -x * (1.0 + 1e-9 * rng.uniform()),
+            0 => x * (1.0 + 1e-6 * (rng.unit() - 0.5)), // cancellation
+            1 => -x * (1.0 + 1e-9 * rng.unit()),
             _ => mag(&mut rng),
         };
         let (x, y) = (ff_of(x), ff_of(if y == 0.0 { 1.0 } else { y }));
@@ -354,15 +339,15 @@ fn cpu_orient(a: [f32; 2], b: [f32; 2], w: [f32; 2]) -> i32 {
 #[test]
 fn orient_matches_the_cpu_f64_sign() {
     let Some(ctx) = gpu_or_skip("orient_matches_the_cpu_f64_sign") else { return };
-    let mut rng = Rng(4);
+    let mut rng = SplitMix64::new(4);
     let mut cases: Vec<[[f32; 2]; 3]> = Vec::new();
-    let coord = |rng: &mut Rng| -> f32 {
-        let r = rng.next();
+    let coord = |rng: &mut SplitMix64| -> f32 {
+        let r = rng.next_u64();
         match r % 5 {
-            0 => ((rng.uniform() - 0.5) * 2048.0) as f32,
-            1 => ((rng.uniform() - 0.5) * 2f64.powi((r >> 8) as i32 % 60 - 40)) as f32,
-            2 => ((rng.next() % 64) as f32) * 0.5 - 8.0,
-            3 => ((rng.uniform() - 0.5) * 2.0 * diffsil::COORD_LIMIT as f64) as f32,
+            0 => ((rng.unit() - 0.5) * 2048.0) as f32,
+            1 => ((rng.unit() - 0.5) * 2f64.powi((r >> 8) as i32 % 60 - 40)) as f32,
+            2 => ((rng.next_u64() % 64) as f32) * 0.5 - 8.0,
+            3 => ((rng.unit() - 0.5) * 2.0 * diffsil::COORD_LIMIT as f64) as f32,
             _ => [0.0, -0.0, 1e-40, -3e-39, 1.0, 1024.0][r as usize / 5 % 6],
         }
     };
@@ -374,10 +359,10 @@ fn orient_matches_the_cpu_f64_sign() {
         ];
         cases.push(p);
         // Nearly collinear: w on the line a→b (rounded), then nudged by an ulp or not.
-        let t = rng.uniform() as f32 * 3.0 - 1.0;
+        let t = rng.unit() as f32 * 3.0 - 1.0;
         let [a, b, _] = p;
         let mut w = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-        match rng.next() % 3 {
+        match rng.next_u64() % 3 {
             0 => w[0] = f32::from_bits(w[0].to_bits() ^ 1),
             1 => w[1] = f32::from_bits(w[1].to_bits() ^ 1),
             _ => {}

@@ -1,10 +1,8 @@
 //! Exercises the GPU plumbing (adapter, include resolver, pipelines, buffers, tiled dispatch,
 //! readback, error handling) with `shaders/smoke.wgsl`. Run on lavapipe with
-//! `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_smoke`.
+//! `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu smoke::`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
+use crate::common::gpu::gpu_or_skip;
 use diffsil::gpu::{self, AdapterChoice, GpuContext, GpuOptions, Readback};
 use diffsil::Error;
 

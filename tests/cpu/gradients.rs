@@ -5,10 +5,8 @@
 //! on directional derivatives along random directions (`common::fd` explains the reference).
 //! Run with `--nocapture` to see the measured errors.
 
-mod common;
-
-use common::fd::{self, Check, FdOptions, H_3D_PX};
-use common::scenes::{self, Scene2d, Scene3d};
+use crate::common::fd::{self, Check, FdOptions, H_3D_PX};
+use crate::common::scenes::{self, Scene2d, Scene3d};
 use diffsil::{Image, RenderSettings, Renderer, Vec2};
 
 const TOL: f64 = 1e-3;

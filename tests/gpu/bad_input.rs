@@ -1,15 +1,13 @@
-//! The bad-input table of `tests/bad_input.rs` on the GPU backend: every invalid input is the
+//! The bad-input table of `tests/cpu/bad_input.rs` on the GPU backend: every invalid input is the
 //! same `Error` as on the CPU backend (same message), and every degenerate input renders the same
 //! image (bit for bit), the same statistics and the same gradients (to 1e-5) — without NaN.
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_bad_input`.
-
-mod common;
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu bad_input::`.
 
 use std::sync::Arc;
 
-use common::gpu::gpu_or_skip;
-use common::scenes;
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes;
 use diffsil::{
     Camera, Error, Frame, Image, Mesh, RenderSettings, RenderStats, Renderer, Result, ScreenView, Topology, Vec2, Vec3,
 };
@@ -30,7 +28,7 @@ fn ones(frame: &Frame) -> Vec<Image> {
 }
 
 fn weights(frame: &Frame, seed: u64) -> Vec<Image> {
-    let mut rng = common::fd::Rng::new(seed);
+    let mut rng = crate::common::fd::Rng::new(seed);
     frame
         .images()
         .iter()

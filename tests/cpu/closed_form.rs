@@ -30,9 +30,7 @@
 //! `∂/∂y1 = ∂S/∂A − x0 ∂S/∂C`. A zero-length edge (`N = 0`) contributes nothing. The clip here is
 //! done on `k` (the line's own parameter), not with the crate's Liang–Barsky on `s`.
 
-mod common;
-
-use common::fd::{symmetric_pair, Rng};
+use crate::common::fd::{symmetric_pair, Rng};
 use diffsil::reference::closed_form::{clip_parameter, pixel_area_gradient, segment_weights};
 use diffsil::reference::oracle::exact_coverage;
 use glam::{DVec2, Vec2};

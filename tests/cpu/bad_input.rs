@@ -1,11 +1,9 @@
 //! Bad and degenerate input: one test each. Invalid input is an `Error` (never a panic), and
 //! degenerate geometry renders and differentiates without NaN.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::scenes;
+use crate::common::scenes;
 use diffsil::{loss, Camera, Error, Frame, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec2, Vec3};
 
 fn renderer() -> Renderer {
@@ -144,7 +142,7 @@ fn duplicate_triangles_change_nothing() {
     let mut r = renderer();
     let (f1, f2) = (r.render(&sphere, &[camera(24, 24)]).unwrap(), r.render(&twice, &[camera(24, 24)]).unwrap());
     assert_eq!(f1.images(), f2.images());
-    let mut rng = common::fd::Rng::new(3);
+    let mut rng = crate::common::fd::Rng::new(3);
     let w = vec![Image::from_vec(24, 24, rng.weights(576)).unwrap()];
     let (g1, g2) = (r.backward(&f1, &w).unwrap(), r.backward(&f2, &w).unwrap());
     assert!(g1.iter().zip(&g2).all(|(a, b)| (*a - *b).length() <= 1e-5 * (1.0 + a.length())));
@@ -163,7 +161,7 @@ fn vertex_behind_the_camera_culls_its_triangles() {
     let mut r = renderer();
     let frame = r.render(&mesh, &[cam]).unwrap();
     assert_eq!(frame.stats()[0].culled_triangles, incident);
-    let mut rng = common::fd::Rng::new(9);
+    let mut rng = crate::common::fd::Rng::new(9);
     let w = vec![Image::from_vec(32, 32, rng.weights(1024)).unwrap()];
     let grads = r.backward(&frame, &w).unwrap();
     assert!(frame.images()[0].data().iter().all(|v| v.is_finite()));
@@ -215,10 +213,10 @@ fn empty_mesh_renders_empty_image_and_zero_gradient() {
 fn resolution_zero_is_an_error() {
     let mesh = tri_mesh();
     for (w, h) in [(0, 16), (16, 0), (0, 0)] {
-        let err = renderer().render(&mesh, &[camera(w, h)]).err().expect("error");
+        let err = renderer().render(&mesh, &[camera(w, h)]).expect_err("error");
         assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
         let view = ScreenView { vertices: vec![Vec2::ZERO; 3], width: w, height: h };
-        let err = renderer().render_screen(mesh.topology(), &[view]).err().expect("error");
+        let err = renderer().render_screen(mesh.topology(), &[view]).expect_err("error");
         assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
     }
 }
@@ -227,23 +225,23 @@ fn resolution_zero_is_an_error() {
 fn resolution_too_large_is_an_error() {
     let mesh = tri_mesh();
     for (w, h) in [(100_000, 16), (16, 100_000), (u32::MAX, u32::MAX)] {
-        let err = renderer().render(&mesh, &[camera(w, h)]).err().expect("error");
+        let err = renderer().render(&mesh, &[camera(w, h)]).expect_err("error");
         assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
         let view = ScreenView { vertices: vec![Vec2::ZERO; 3], width: w, height: h };
-        let err = renderer().render_screen(mesh.topology(), &[view]).err().expect("error");
+        let err = renderer().render_screen(mesh.topology(), &[view]).expect_err("error");
         assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
     }
 }
 
 #[test]
 fn supersample_zero_is_an_error() {
-    let err = Renderer::new(RenderSettings { supersample: 0, ..RenderSettings::default() }).err().expect("error");
+    let err = Renderer::new(RenderSettings { supersample: 0, ..RenderSettings::default() }).expect_err("error");
     assert!(matches!(err, Error::InvalidSupersample(0)), "{err}");
 }
 
 #[test]
 fn supersample_seventeen_is_an_error() {
-    let err = Renderer::new(RenderSettings { supersample: 17, ..RenderSettings::default() }).err().expect("error");
+    let err = Renderer::new(RenderSettings { supersample: 17, ..RenderSettings::default() }).expect_err("error");
     assert!(matches!(err, Error::InvalidSupersample(17)), "{err}");
     assert!(Renderer::new(RenderSettings { supersample: 16, ..RenderSettings::default() }).is_ok());
 }
@@ -251,7 +249,7 @@ fn supersample_seventeen_is_an_error() {
 #[test]
 fn non_finite_pixel_values_are_an_error() {
     for (inside, outside) in [(f32::NAN, 0.0), (1.0, f32::INFINITY)] {
-        let err = Renderer::new(RenderSettings { supersample: 4, inside, outside }).err().expect("error");
+        let err = Renderer::new(RenderSettings { supersample: 4, inside, outside }).expect_err("error");
         assert!(matches!(err, Error::InvalidSettings(_)), "{err}");
     }
 }

@@ -3,15 +3,13 @@
 //! exact-area oracle along random directions at 64² (`common::fd::check_3d_directions`).
 //!
 //! Ignored by default; run with
-//! `DIFFSIL_ASSETS=/work/shared/assets cargo test --test real_meshes -- --include-ignored`.
-
-mod common;
+//! `DIFFSIL_ASSETS=/work/shared/assets cargo test --test cpu real_meshes -- --include-ignored`.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use common::fd::{self, FdOptions};
-use common::scenes::Scene3d;
+use crate::common::fd::{self, FdOptions};
+use crate::common::scenes::Scene3d;
 use diffsil::{Camera, Mesh, RenderSettings, Renderer, Vec3};
 
 const TOL: f64 = 1e-3;

@@ -3,12 +3,10 @@
 //! field (two elements, so the stride matters), a shader reads each field and writes its bits in
 //! declaration order, and the result must be the Rust struct's own words.
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_layout`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu layout::`.
 
-mod common;
-
+use crate::common::gpu::gpu_or_skip;
 use bytemuck::Pod;
-use common::gpu::gpu_or_skip;
 use diffsil::gpu::{GpuContext, Readback};
 use diffsil::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use diffsil::mirror::{FrameParams, FrameUniform, GpuView, MAX_VIEWS};

@@ -1,8 +1,6 @@
 //! Tests of `diffsil::io`: OBJ loading with welding, PNG saving and target loading.
 
-#[path = "common/files.rs"]
-mod files;
-use files::{temp_dir, write};
+use crate::common::files::{temp_dir, write};
 
 use std::path::PathBuf;
 

@@ -5,26 +5,15 @@
 use diffsil::reference::oracle::{exact_coverage, exact_image};
 use glam::Vec2;
 
+use crate::common::rng::{Draws, SplitMix64};
+
 // ---------------------------------------------------------------------------------------------
 // Independent references
 // ---------------------------------------------------------------------------------------------
 
-/// Small deterministic PRNG (splitmix64), uniform in [0, 1).
-struct Rng(u64);
-
-impl Rng {
-    fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f32 {
-        (lo + (hi - lo) * self.next_f64()) as f32
-    }
+/// A coordinate uniform in `[lo, hi)`, drawn in f64 and rounded to f32.
+fn coord(rng: &mut SplitMix64, lo: f64, hi: f64) -> f32 {
+    rng.range_f64(lo, hi) as f32
 }
 
 type P = [f64; 2];
@@ -150,13 +139,13 @@ fn at(img: &[f64], w: u32, i: u32, j: u32) -> f64 {
 }
 
 /// Random triangle soup: `n` triangles with centres in `[lo, hi]²` and vertices within `r`.
-fn random_soup(rng: &mut Rng, n: usize, lo: f64, hi: f64, r: f64) -> (Vec<Vec2>, Vec<[u32; 3]>) {
+fn random_soup(rng: &mut SplitMix64, n: usize, lo: f64, hi: f64, r: f64) -> (Vec<Vec2>, Vec<[u32; 3]>) {
     let mut v = Vec::new();
     let mut t = Vec::new();
     for k in 0..n {
-        let c = (rng.range(lo, hi) as f64, rng.range(lo, hi) as f64);
+        let c = (coord(rng, lo, hi) as f64, coord(rng, lo, hi) as f64);
         for _ in 0..3 {
-            v.push(Vec2::new(rng.range(c.0 - r, c.0 + r), rng.range(c.1 - r, c.1 + r)));
+            v.push(Vec2::new(coord(rng, c.0 - r, c.0 + r), coord(rng, c.1 - r, c.1 + r)));
         }
         let b = 3 * k as u32;
         t.push([b, b + 1, b + 2]);
@@ -273,7 +262,7 @@ fn overlapping_slanted_triangles_count_once() {
 #[test]
 fn random_soup_matches_inclusion_exclusion_and_sampling() {
     let (w, h) = (16u32, 16u32);
-    let mut rng = Rng(0x5EED_0001);
+    let mut rng = SplitMix64::new(0x5EED_0001);
     for round in 0..4 {
         // Eight triangles of mixed sizes, some crossing the border.
         let r = [1.5, 3.0, 5.0, 8.0][round];
@@ -313,7 +302,7 @@ fn random_soup_matches_inclusion_exclusion_and_sampling() {
 #[test]
 fn many_small_triangles_match_references() {
     let (w, h) = (64u32, 64u32);
-    let mut rng = Rng(42);
+    let mut rng = SplitMix64::new(42);
     let (v, t) = random_soup(&mut rng, 5000, -1.0, 65.0, 1.2);
     let img = exact_coverage(&v, &t, w, h);
     assert!(img.iter().all(|&c| (0.0..=1.0).contains(&c)));
@@ -345,11 +334,11 @@ fn snapped_and_shared_vertex_soups_match_inclusion_exclusion() {
     // Degenerate-prone input: vertices snapped to half-pixels (vertices on pixel corners, edges
     // along pixel borders, collinear overlapping edges) and triangles sharing vertices.
     for seed in 0..200u64 {
-        let mut rng = Rng(seed);
+        let mut rng = SplitMix64::new(seed);
         let (mut v, mut t) = (Vec::new(), Vec::new());
         for k in 0..6u32 {
             for _ in 0..3 {
-                let (mut x, mut y) = (rng.range(-1.0, 9.0), rng.range(-1.0, 9.0));
+                let (mut x, mut y) = (coord(&mut rng, -1.0, 9.0), coord(&mut rng, -1.0, 9.0));
                 if seed % 2 == 0 {
                     (x, y) = ((x * 2.0).round() / 2.0, (y * 2.0).round() / 2.0);
                 }

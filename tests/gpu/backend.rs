@@ -3,12 +3,10 @@
 //! `Error::GpuLimit` (never a wgpu panic), and a frame is differentiated correctly even after the
 //! renderer has rendered other frames (its GPU state is rebuilt).
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu_backend`.
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu backend::`.
 
-mod common;
-
-use common::gpu::gpu_or_skip;
-use common::scenes;
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes;
 use diffsil::gpu::{hardware_gpu_available, GpuOptions};
 use diffsil::{Backend, Camera, Error, Image, RenderSettings, Renderer, ScreenView, Vec2, Vec3};
 

@@ -2,9 +2,7 @@
 //! values stay within [p0, p1], image sizes and pixel values are honoured, and results are
 //! bit-for-bit deterministic, run after run and whatever the thread count.
 
-mod common;
-
-use common::scenes::{self, Scene2d};
+use crate::common::scenes::{self, Scene2d};
 use diffsil::reference::oracle::{exact_coverage, exact_image};
 use diffsil::{Camera, Frame, Image, RenderSettings, Renderer, Vec2, Vec3};
 

@@ -9,16 +9,14 @@
 //! screen vertices — and hence the images — are identical on any conforming device. The mean
 //! absolute difference (which the issue allows up to 1e-6) is asserted as well, and measured.
 //!
-//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --release --test gpu_vs_cpu`
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --release --test gpu vs_cpu`
 //! (`--nocapture` prints the measured differences).
-
-mod common;
 
 use std::sync::Arc;
 
-use common::fd::{self, Rng};
-use common::gpu::gpu_or_skip;
-use common::scenes::{self, Scene2d, Scene3d};
+use crate::common::fd::{self, Rng};
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes::{self, Scene2d, Scene3d};
 use diffsil::{Camera, Frame, Image, Mesh, Orbit, RenderSettings, Renderer, ScreenView, Topology, Vec2, Vec3};
 
 fn gpu_renderer(name: &str, settings: RenderSettings) -> Option<Renderer> {
