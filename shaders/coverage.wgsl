@@ -1,4 +1,4 @@
-// `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage.rs): the F×F sample masks of
+// `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage/): the F×F sample masks of
 // every pixel of every view.
 //
 // Reads:  `frame`, `snapped` (from project.wgsl), `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view

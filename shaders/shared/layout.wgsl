@@ -3,7 +3,7 @@
 // same name there. The build checks them: build/shaders.rs reflects this file with naga and
 // src/mirror.rs asserts at compile time that every struct has the same size and member offsets
 // (members by name) and every constant the same value, so a mismatch fails the build.
-// (`tests/gpu_layout.rs` also round-trips every field through the GPU.)
+// (`tests/gpu/layout.rs` also round-trips every field through the GPU.)
 //
 //   ScreenVertex   16 bytes
 //   RasterParams   48 bytes

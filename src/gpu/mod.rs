@@ -5,7 +5,7 @@
 //! [`stages`] (one WGSL file per CPU stage, all views of a frame in one dispatch each, one
 //! submission per forward and one per backward; `Renderer::squared_error_step` runs forward,
 //! loss and backward in one submission). Screen-space input gives images bit-identical
-//! to the CPU backend's and gradients equal to ~1e-7 relative (`tests/gpu_vs_cpu.rs`).
+//! to the CPU backend's and gradients equal to ~1e-7 relative (`tests/gpu/vs_cpu.rs`).
 //!
 //! This module holds the plumbing the stages share, one concern per file:
 //! - `adapter.rs`: adapter selection ([`GpuOptions`], [`AdapterChoice`], `DIFFSIL_ADAPTER`,

@@ -16,7 +16,7 @@
 //! | `bin_count` | `bin`, `src/cpu/bin.rs`; `face_orientations`, `src/cpu/edges.rs` | `bin_count.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `status` | `counts`, `status`, `bins`, `classes`, `occluders` | view × triangle |
 //! | `scan` | `bin`, `src/cpu/bin.rs` | `scan.wgsl` | `counts` | `bins`, `status` | frame (one workgroup) |
 //! | `bin_fill` | `bin`, `src/cpu/bin.rs` | `bin_fill.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `bins`, `classes` | `counts`, `bins`, `occluders` | view × triangle |
-//! | `coverage` | `coverage`, `src/cpu/coverage.rs` | `coverage.wgsl` | `snapped`, `triangles`, `bins`, `status` | `masks`, `status` | tile (a workgroup) |
+//! | `coverage` | `coverage`, `src/cpu/coverage/` | `coverage.wgsl` | `snapped`, `triangles`, `bins`, `status` | `masks`, `status` | tile (a workgroup) |
 //! | `resolve` | `resolve`, `src/cpu/resolve.rs` | `resolve.wgsl` | `masks` | `image` | pixel |
 //! | `edges` | `edges`, `src/cpu/edges.rs` | `edges.wgsl` | `screen`, `triangles`, `edges`, `edge_faces`, `classes`, `status` | `classes`, `status` | view × edge |
 //! | `loss` (step) | `squared_error`, `src/loss.rs` | `loss.wgsl` | `image`, `target_image` | `d_image`, `tile_losses` | tile (a workgroup) |

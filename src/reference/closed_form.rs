@@ -11,7 +11,7 @@
 //! ```
 //!
 //! (moving `va` by δ moves the point at `s` by `(1 − s)·δ`: the flux through the segment). This
-//! equals the paper's Eqs. 12–16; `tests/closed_form.rs` checks one against the other.
+//! equals the paper's Eqs. 12–16; `tests/cpu/closed_form.rs` checks one against the other.
 
 use glam::DVec2;
 

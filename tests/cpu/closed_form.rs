@@ -1,4 +1,4 @@
-//! The closed-form pixel-area derivative of DESIGN.md §2 (`closed_form::pixel_area_gradient`)
+//! The closed-form pixel-area derivative of ARCHITECTURE.md, *The method* (`closed_form::pixel_area_gradient`)
 //! against the paper's formulation (Wu, Jiang, Yu 2020, Eqs. 12–16) and against finite
 //! differences of the exact triangle ∩ pixel area.
 //!

@@ -1,4 +1,4 @@
-//! Analytic gradients vs central finite differences of the exact-area oracle (DESIGN.md §2–§3).
+//! Analytic gradients vs central finite differences of the exact-area oracle (ARCHITECTURE.md, *The method*).
 //!
 //! Every scene of `common::scenes` in screen space (2D), and the 3D chain through perspective and
 //! orthographic cameras with several views. Relative error ≤ 1e-3 on the full vertex gradient and

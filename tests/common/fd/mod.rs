@@ -3,7 +3,7 @@
 //! The loss is `L = Σ w_ij · I(i, j)` with fixed random weights `w` (seeded), so `∂L/∂I = w`. The
 //! analytic gradient comes from `Renderer::backward_screen` (2D) or `Renderer::backward` (3D); the
 //! reference is central differences of `L` evaluated on `oracle::exact_image` (f64), which is the
-//! ideal image the backward differentiates (DESIGN.md §1–§3).
+//! ideal image the backward differentiates (ARCHITECTURE.md, *The method* and *Data path*).
 //!
 //! **2D.** Vertices are `f32`. Each difference quotient uses actually representable values placed
 //! exactly symmetrically about the vertex ([`symmetric_pair`]) and divides by the actual step
