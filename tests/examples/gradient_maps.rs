@@ -4,7 +4,7 @@
 //! bad command lines.
 
 #[allow(dead_code)]
-#[path = "../../examples/gradient_maps.rs"]
+#[path = "../../examples/gradient_maps/main.rs"]
 mod example;
 
 use std::sync::Arc;
