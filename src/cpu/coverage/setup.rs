@@ -79,6 +79,7 @@ pub(super) struct Shift(u32);
 
 impl Shift {
     /// `Shift` for `d` when it is a power of two.
+    #[inline]
     pub(super) fn of(d: i64) -> Option<Shift> {
         (d as u64).is_power_of_two().then(|| Shift(d.trailing_zeros()))
     }

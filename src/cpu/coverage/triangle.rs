@@ -16,6 +16,7 @@ pub struct SnappedTriangle {
 
 impl SnappedTriangle {
     /// The snapped triangle `tri`; `None` when a vertex is clipped or the snapped area is zero.
+    #[inline]
     pub fn new(snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<SnappedTriangle> {
         let s = tri.map(|i| snapped[i as usize]);
         if s.contains(&INVALID_SNAPPED_VERTEX) {
@@ -34,12 +35,14 @@ impl SnappedTriangle {
     }
 
     /// Edge function of edge k at point `p` (units): positive inside.
+    #[inline]
     pub fn edge_function(&self, k: usize, p: [i64; 2]) -> i64 {
         let (a, b) = (self.v[k], self.v[(k + 1) % 3]);
         (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
     }
 
     /// Whether the sample at `p` (units) is covered.
+    #[inline]
     pub fn covers(&self, p: [i64; 2]) -> bool {
         (0..3).all(|k| self.edge_function(k, p) + self.bias[k] > 0)
     }
@@ -90,6 +93,7 @@ impl SnappedTriangle {
     /// Covers rows `rows` (sample rows, within columns `cols`) by exact spans, each edge's bound
     /// stepped from row to row with an incremental floor division (a few divisions per triangle,
     /// none per row). Same samples as testing [`SnappedTriangle::covers`] at each one.
+    #[inline]
     pub(super) fn raster_rows(&self, params: &RasterParams, cols: (i64, i64), rows: (i64, i64), band: &mut Band<'_>) {
         let h = params.half_step as i64;
         let py0 = (2 * rows.0 + 1) * h;
@@ -143,6 +147,7 @@ impl SnappedTriangle {
     }
 
     /// Tests every sample of the box with incremental edge functions.
+    #[inline]
     pub(super) fn raster_samples(
         &self,
         params: &RasterParams,
