@@ -11,10 +11,9 @@
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use diffsil::figure::{builtin_figure, random_pose_limits};
-use diffsil::fit::{framing_cameras, random_pose, PoseFit};
-use diffsil::self_intersection::SelfIntersectionChecker;
-use diffsil::skin::Pose;
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{framing_cameras, random_pose, FitSettings, PoseFit};
+use diffsil::pose::self_intersection::SelfIntersectionChecker;
 use diffsil::{Mesh, RenderSettings, Renderer, Targets};
 
 const VIEWS: u32 = 4;
@@ -29,11 +28,10 @@ fn pose_fit(c: &mut Criterion) {
     let cameras = framing_cameras(&model.mesh, VIEWS, RESOLUTION);
     let mut renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
     let targets = renderer.render(&truth_mesh, &cameras).expect("targets render").images().to_vec();
-    let rest = Pose::rest(model.joint_count());
     let mut views = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
     let view_targets = Targets::new(targets.clone()).expect("valid targets");
     let view_cameras = cameras.clone();
-    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, &rest, 0.02, 1e-7).expect("valid fit");
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, FitSettings::default()).expect("valid fit");
     fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
 
     let mut group = c.benchmark_group("pose_fit/builtin figure");

@@ -8,7 +8,7 @@
 //!
 //! A random plausible ground-truth pose is drawn from the seed, its silhouettes rendered from
 //! `--views` cameras around the model, and the pose fitted with
-//! `E = E_sl + λ·E_spt + μ·E_prior` and Adam, by the method of `diffsil::fit` (`PoseFit::run`):
+//! `E = E_sl + λ·E_spt + μ·E_prior` and Adam, by the method of `diffsil::pose::fit` (`PoseFit::run`):
 //! three starting poses (rest, and the legs in a stride each way) tried for a few steps on
 //! blurred silhouettes, the lowest-energy one kept and refined coarse to fine, the blur shrinking
 //! to none, with a zero-mean prior on the joint offsets. `--plain` fits from the rest pose without
@@ -19,110 +19,74 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use diffsil::figure::{builtin_figure, random_pose_limits};
-use diffsil::fit::{framing_cameras, per_vertex_error, random_pose, stride_hypotheses, PoseFit, Schedule, Stage};
-use diffsil::gltf_io::{load_gltf, Model};
-use diffsil::gpu::GpuOptions;
-use diffsil::skin::{Pose, SkinnedMesh};
-use diffsil::Backend;
+use clap::Parser;
+use diffsil::io::gltf::{load_gltf, Model};
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{
+    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage,
+};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Image, RenderSettings, Renderer};
 
-const HELP: &str = "\
-fit_pose: fit a skinned mesh's pose to multi-view silhouettes
+mod common;
+use common::{finite, median, BackendName};
 
-options:
-  --model PATH       skinned .gltf/.glb (default: the built-in figure)
-  --views N          number of cameras around the model, azimuths evenly spaced (default 4)
-  --resolution N     image side in pixels (default 64)
-  --supersample F    samples per pixel side, 1 = no anti-aliasing (default 4)
-  --iterations N     Adam steps in all, every starting pose included (default 300)
-  --lr X             Adam learning rate (default 0.02)
-  --lambda X         self-intersection weight λ; E_sl is a mean over pixels (default 1e-7)
-  --stride X         leg stride (radians) of the two extra starting poses; 0: rest pose only
-                     (default 0.3)
-  --prior X          weight μ of the pose prior μ·mean_j |θ_j|² (default 1e-3)
-  --plain            plain descent: rest pose only, no blur, no prior (the paper's method)
-  --seed N           seed of the ground-truth pose (default 1)
-  --backend NAME     cpu, gpu or auto (default cpu)
-  --out DIR          where the PNGs go (default fit_pose_out)
-  --ablation N       run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
-  -h, --help         this text
-
-method (diffsil::fit, PoseFit::run): E = E_sl + λ·E_spt + μ·E_prior, where E_sl is the mean
+/// Command-line options (`fit_pose --help`).
+#[derive(Clone, Debug, Parser)]
+#[command(
+    name = "fit_pose",
+    about = "Fit a skinned mesh's pose to multi-view silhouettes",
+    after_help = "\
+Method (diffsil::pose::fit, PoseFit::run): E = E_sl + λ·E_spt + μ·E_prior, where E_sl is the mean
 squared error over all pixels of all views between the rendered and target silhouettes, both
 blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on the joint offsets.
 Each of the three starting poses runs 1/10 of the steps with a blur of 6% of the image height;
 the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%, 1/12 at 3%, the
-rest (170 of 300) unblurred. Same method and settings at every resolution and F.";
-
-#[derive(Clone, Debug)]
+rest (170 of 300) unblurred. Same method and settings at every resolution and F."
+)]
 struct Options {
+    /// Skinned .gltf/.glb [default: the built-in figure]
+    #[arg(long, value_name = "PATH")]
     model: Option<PathBuf>,
+    /// Number of cameras around the model, azimuths evenly spaced, at least 1
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     views: u32,
+    /// Image side in pixels
+    #[arg(long, value_name = "N", default_value_t = 64)]
     resolution: u32,
+    /// Samples per pixel side, 1 = no anti-aliasing
+    #[arg(long, value_name = "F", default_value_t = 4)]
     supersample: u32,
+    /// Adam steps in all, every starting pose included
+    #[arg(long, value_name = "N", default_value_t = 300)]
     iterations: u32,
+    /// Adam learning rate
+    #[arg(long, value_name = "X", default_value = "0.02", value_parser = finite)]
     lr: f32,
+    /// Self-intersection weight λ; E_sl is a mean over pixels
+    #[arg(long, value_name = "X", default_value = "1e-7", value_parser = finite)]
     lambda: f32,
-    seed: u64,
-    backend: String,
-    out: PathBuf,
-    ablation: Option<u32>,
+    /// Leg stride (radians) of the two extra starting poses; 0: rest pose only
+    #[arg(long, value_name = "X", default_value = "0.3", value_parser = finite)]
     stride: f32,
+    /// Weight μ of the pose prior μ·mean_j |θ_j|² [default: PoseFit::POSE_PRIOR = 1e-3]
+    #[arg(long, value_name = "X", default_value_t = PoseFit::POSE_PRIOR, hide_default_value = true, value_parser = finite)]
     prior: f32,
+    /// Plain descent: rest pose only, no blur, no prior (the paper's method)
+    #[arg(long)]
     plain: bool,
-}
-
-fn parse() -> Result<Options, String> {
-    let mut o = Options {
-        model: None,
-        views: 4,
-        resolution: 64,
-        supersample: 4,
-        iterations: 300,
-        lr: 0.02,
-        lambda: 1e-7,
-        seed: 1,
-        backend: "cpu".into(),
-        out: "fit_pose_out".into(),
-        ablation: None,
-        stride: 0.3,
-        prior: PoseFit::POSE_PRIOR,
-        plain: false,
-    };
-    let mut args = std::env::args().skip(1);
-    while let Some(flag) = args.next() {
-        if flag == "-h" || flag == "--help" {
-            println!("{HELP}");
-            std::process::exit(0);
-        }
-        if flag == "--plain" {
-            o.plain = true;
-            continue;
-        }
-        let value = args.next().ok_or(format!("{flag} needs a value (see --help)"))?;
-        let bad = |e: &dyn std::fmt::Display| format!("{flag} {value}: {e}");
-        match flag.as_str() {
-            "--model" => o.model = Some(value.into()),
-            "--views" => o.views = value.parse().map_err(|e| bad(&e))?,
-            "--resolution" => o.resolution = value.parse().map_err(|e| bad(&e))?,
-            "--supersample" => o.supersample = value.parse().map_err(|e| bad(&e))?,
-            "--iterations" => o.iterations = value.parse().map_err(|e| bad(&e))?,
-            "--lr" => o.lr = value.parse().map_err(|e| bad(&e))?,
-            "--lambda" => o.lambda = value.parse().map_err(|e| bad(&e))?,
-            "--seed" => o.seed = value.parse().map_err(|e| bad(&e))?,
-            "--backend" => o.backend = value,
-            "--out" => o.out = value.into(),
-            "--ablation" => o.ablation = Some(value.parse().map_err(|e| bad(&e))?),
-            "--stride" => o.stride = value.parse().map_err(|e| bad(&e))?,
-            "--prior" => o.prior = value.parse().map_err(|e| bad(&e))?,
-            _ => return Err(format!("unknown option {flag} (see --help)")),
-        }
-    }
-    if o.views == 0 {
-        return Err("--views must be at least 1".into());
-    }
-    Ok(o)
+    /// Seed of the ground-truth pose
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    /// Which engine renders
+    #[arg(long, value_name = "NAME", value_enum, default_value_t = BackendName::Cpu)]
+    backend: BackendName,
+    /// Where the PNGs go
+    #[arg(long, value_name = "DIR", default_value = "fit_pose_out")]
+    out: PathBuf,
+    /// Run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
+    #[arg(long, value_name = "N")]
+    ablation: Option<u32>,
 }
 
 fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
@@ -136,15 +100,6 @@ fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::
                 Err(format!("{}: the model has no skin, so it has no pose to fit", path.display()).into())
             }
         },
-    }
-}
-
-fn backend(name: &str) -> Result<Backend, String> {
-    match name {
-        "cpu" => Ok(Backend::Cpu),
-        "gpu" => Ok(Backend::Gpu(GpuOptions::from_env())),
-        "auto" => Ok(Backend::Auto),
-        _ => Err(format!("--backend {name}: use cpu, gpu or auto")),
     }
 }
 
@@ -166,12 +121,18 @@ fn fit(model: &SkinnedMesh, o: &Options, pictures: bool, quiet: bool) -> Result<
         diffsil::Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
     let cameras = framing_cameras(&rest_mesh, o.views, o.resolution);
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, backend(&o.backend)?)?;
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     let truth_mesh = diffsil::Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
     let targets = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
 
     let rest = Pose::rest(model.joint_count());
-    let mut fit = PoseFit::new(model.clone(), cameras, targets.clone(), renderer, &rest, o.lr, o.lambda)?;
+    let mut fit = PoseFit::new(
+        model.clone(),
+        cameras,
+        targets.clone(),
+        renderer,
+        FitSettings { initial: Some(rest.clone()), learning_rate: o.lr, lambda: o.lambda },
+    )?;
     let backend = fit.renderer().backend_name();
     let before = if pictures { Some(fit.render()?) } else { None };
     fit.set_pose_prior(if o.plain { 0.0 } else { o.prior })?;
@@ -254,18 +215,6 @@ fn comparison_sheet(target: &Image, before: &Image, after: &Image) -> image::Rgb
     sheet
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn ablation(model: &SkinnedMesh, name: &str, o: &Options, seeds: u32) -> Result<(), Box<dyn std::error::Error>> {
     let method = if o.plain { "plain descent" } else { "coarse to fine, multiple starts" };
     println!(
@@ -304,17 +253,17 @@ fn ablation(model: &SkinnedMesh, name: &str, o: &Options, seeds: u32) -> Result<
 }
 
 fn main() {
-    if let Err(e) = run() {
+    let o = Options::parse();
+    if let Err(e) = run(&o) {
         eprintln!("fit_pose: {e}");
         std::process::exit(1);
     }
 }
 
-fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let o = parse()?;
-    let (model, name) = load_model(&o)?;
+fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
+    let (model, name) = load_model(o)?;
     if let Some(seeds) = o.ablation {
-        return ablation(&model, &name, &o, seeds);
+        return ablation(&model, &name, o, seeds);
     }
     println!(
         "{name}: {} vertices, {} triangles, {} joints; {} views at {}², F = {}, seed {}",
@@ -326,7 +275,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         o.supersample,
         o.seed
     );
-    let outcome = fit(&model, &o, true, false)?;
+    let outcome = fit(&model, o, true, false)?;
     println!(
         "final: per_vertex_error_mm={:.2} iterations={} seconds={:.3} backend={} model={name}",
         outcome.error_m * 1000.0,

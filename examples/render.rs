@@ -16,99 +16,86 @@
 //! buffer bytes come from wgpu's allocator report (`wgpu::Device::generate_allocator_report`,
 //! available on Vulkan and DX12): the memory behind every live buffer of the device, by label.
 //!
-//! This file is also compiled into `tests/render_cli.rs`, which checks its argument parsing.
+//! This file is also compiled into `tests/examples/render.rs`, which checks its options and its run.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
+use clap::Parser;
 use diffsil::gpu::{GpuContext, GpuOptions};
-use diffsil::{loss, shapes, Backend, BackwardStats, Camera, Image, Mesh, Projection, RenderSettings, Renderer, Vec3};
+use diffsil::{loss, shapes, Backend, BackwardStats, Camera, Image, Mesh, Orbit, RenderSettings, Renderer};
 
-/// `--help` text.
-pub const HELP: &str = "\
-render: render a mesh's silhouette to PNG; time its forward and backward
+mod common;
+pub use common::BackendName;
+use common::{elevation, finite, median, positive};
 
-usage: render [MESH] [options]
-
-  MESH, --mesh PATH    .obj, .gltf or .glb (a skinned glTF in its rest pose). Default: the
-                       built-in lumpy blob; with --memory, the Stanford bunny from
-                       $DIFFSIL_ASSETS/stanford-bunny.obj. The mesh is normalised: bounding-box
-                       centre at the origin, farthest vertex at distance 1.
-  --azimuth DEG        camera azimuth about +y, degrees; 0 looks along -z from +z (default 0)
-  --elevation DEG      camera elevation, degrees, -90 < DEG < 90; positive looks down (default 0)
-  --distance D         camera distance from the origin (default 2.7)
-  --fov DEG            vertical field of view of the perspective camera, degrees (default 50)
-  --orthographic       parallel projection instead of perspective
-  --view-height H      world units the image height spans, orthographic only (default 2.4)
-  --resolution N|WxH   image size in pixels (default 512; 1024 with --memory)
-  --supersample F      samples per pixel side, 1 (no anti-aliasing) to 16 (default 4)
-  --backend NAME       cpu, gpu or auto (default auto: a hardware GPU if there is one, else
-                       the CPU; gpu takes its adapter from DIFFSIL_ADAPTER / WGPU_BACKEND)
-  --repeat N           timed runs after the first, for the median (default 5)
-  --out FILE.png       where the silhouette goes (default render.png)
-  --memory             measure memory instead: peak heap of a forward + backward on the CPU
-                       backend, then the GPU buffer bytes on the GPU backend (if an adapter
-                       opens), next to the theoretical minimum of one 16-bit sample mask per
-                       pixel at F = 4; --backend is ignored
-  -h, --help           this text
-
-prints: the backend and adapter; the time of the first forward and backward (which include
+/// Command-line options (`render --help`).
+#[derive(Clone, Debug, PartialEq, Parser)]
+#[command(
+    name = "render",
+    about = "Render a mesh's silhouette to PNG; time its forward and backward",
+    after_help = "\
+Prints: the backend and adapter; the time of the first forward and backward (which include
 one-time set-up such as GPU pipelines and buffers) and the median of --repeat more; the
 triangles culled, the contour candidates (edges that may lie on the silhouette) and the
-(edge, pixel) segments the backward visited and found visible.";
-
-/// Command-line options.
-#[derive(Clone, Debug, PartialEq)]
+(edge, pixel) segments the backward visited and found visible. The backward is that of
+L = Σ (I − T)² against the silhouette shifted right by 2% of the image width."
+)]
 pub struct Options {
-    /// Mesh file, or `None` for the default.
+    /// .obj, .gltf or .glb (a skinned glTF in its rest pose), normalised: bounding-box centre at
+    /// the origin, farthest vertex at distance 1. Default: the built-in lumpy blob; with
+    /// --memory, the Stanford bunny from $DIFFSIL_ASSETS/stanford-bunny.obj
+    #[arg(value_name = "MESH")]
     pub mesh: Option<PathBuf>,
-    /// Degrees.
+    /// The same as MESH, as an option
+    #[arg(long = "mesh", value_name = "PATH", conflicts_with = "mesh")]
+    pub mesh_option: Option<PathBuf>,
+    /// Camera azimuth about +y, degrees; 0 looks along -z from +z
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = finite, allow_negative_numbers = true)]
     pub azimuth: f32,
-    /// Degrees.
+    /// Camera elevation, degrees, strictly between -90 and 90; positive looks down
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = elevation, allow_negative_numbers = true)]
     pub elevation: f32,
-    /// Camera distance from the origin.
+    /// Camera distance from the origin, > 0
+    #[arg(long, value_name = "D", default_value_t = 2.7, value_parser = positive, allow_negative_numbers = true)]
     pub distance: f32,
-    /// Vertical field of view, degrees (perspective).
+    /// Vertical field of view of the perspective camera, degrees, strictly between 0 and 180
+    #[arg(long, value_name = "DEG", default_value_t = 50.0, value_parser = fov, allow_negative_numbers = true)]
     pub fov: f32,
-    /// Orthographic instead of perspective.
+    /// Parallel projection instead of perspective
+    #[arg(long)]
     pub orthographic: bool,
-    /// World units spanned by the image height (orthographic).
+    /// World units the image height spans, orthographic only, > 0
+    #[arg(long, value_name = "H", default_value_t = 2.4, value_parser = positive, allow_negative_numbers = true)]
     pub view_height: f32,
-    /// Width and height in pixels; `None` for the default.
+    /// Image size in pixels, N (square) or WxH [default: 512; 1024 with --memory]
+    #[arg(long = "resolution", value_name = "N|WxH", value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// F.
+    /// Samples per pixel side, 1 (no anti-aliasing) to 16
+    #[arg(long, value_name = "F", default_value_t = 4)]
     pub supersample: u32,
-    /// `cpu`, `gpu` or `auto`.
-    pub backend: String,
-    /// Timed runs after the first.
+    /// Which engine renders
+    #[arg(long, value_name = "NAME", value_enum, default_value_t = BackendName::Auto)]
+    pub backend: BackendName,
+    /// Timed runs after the first, for the median
+    #[arg(long, value_name = "N", default_value_t = 5)]
     pub repeat: u32,
-    /// PNG path.
+    /// Where the silhouette goes
+    #[arg(long, value_name = "FILE.png", default_value = "render.png")]
     pub out: PathBuf,
-    /// Measure memory.
+    /// Measure memory instead: peak heap of a forward + backward on the CPU backend, then the
+    /// GPU buffer bytes on the GPU backend (if an adapter opens), next to the theoretical
+    /// minimum of one 16-bit sample mask per pixel at F = 4; --backend is ignored
+    #[arg(long)]
     pub memory: bool,
 }
 
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            mesh: None,
-            azimuth: 0.0,
-            elevation: 0.0,
-            distance: 2.7,
-            fov: 50.0,
-            orthographic: false,
-            view_height: 2.4,
-            size: None,
-            supersample: 4,
-            backend: "auto".into(),
-            repeat: 5,
-            out: "render.png".into(),
-            memory: false,
-        }
-    }
-}
-
 impl Options {
+    /// The mesh file, given as MESH or as --mesh; `None` for the default.
+    pub fn mesh_path(&self) -> Option<&PathBuf> {
+        self.mesh.as_ref().or(self.mesh_option.as_ref())
+    }
+
     /// Image width and height.
     pub fn size(&self) -> (u32, u32) {
         self.size.unwrap_or(if self.memory { (1024, 1024) } else { (512, 512) })
@@ -117,106 +104,44 @@ impl Options {
     /// The camera these options describe.
     pub fn camera(&self) -> Camera {
         let (width, height) = self.size();
-        let (az, el) = (self.azimuth.to_radians(), self.elevation.to_radians());
-        let direction = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
-        let mut camera =
-            Camera::perspective(direction * self.distance, Vec3::ZERO, self.fov.to_radians(), width, height);
+        let orbit = Orbit {
+            azimuth: self.azimuth.to_radians(),
+            elevation: self.elevation.to_radians(),
+            distance: self.distance,
+            fov_y: self.fov.to_radians(),
+            ..Orbit::default()
+        };
         if self.orthographic {
-            camera.projection = Projection::Orthographic { height: self.view_height };
-            camera.near = 0.0;
+            Camera::orthographic(orbit.eye(), orbit.target, self.view_height, width, height)
+        } else {
+            orbit.camera(width, height)
         }
-        camera
     }
 }
 
-/// Parses a size: `N` (square) or `WxH`.
+/// A vertical field of view, degrees, strictly between 0 and 180.
+fn fov(value: &str) -> Result<f32, String> {
+    let x = finite(value)?;
+    if x > 0.0 && x < 180.0 {
+        Ok(x)
+    } else {
+        Err("use a value strictly between 0 and 180 degrees".into())
+    }
+}
+
+/// Parses a size: `N` (square) or `WxH`. Ranges the renderer checks itself (resolution, F) are
+/// left to it, so its messages apply.
 fn parse_size(value: &str) -> Result<(u32, u32), String> {
-    let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("--resolution {value}: {e}"));
+    let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("{e} (use N or WxH)"));
     match value.split_once(['x', 'X']) {
         Some((w, h)) => Ok((parse(w)?, parse(h)?)),
         None => parse(value).map(|n| (n, n)),
     }
 }
 
-/// Parses the arguments (without the program name). `Ok(None)` means `--help` was asked for.
-/// Ranges the renderer checks itself (resolution, F) are left to it, so its messages apply.
-pub fn parse_args(args: impl IntoIterator<Item = String>) -> Result<Option<Options>, String> {
-    let mut o = Options::default();
-    let mut args = args.into_iter();
-    while let Some(flag) = args.next() {
-        match flag.as_str() {
-            "-h" | "--help" => return Ok(None),
-            "--orthographic" => {
-                o.orthographic = true;
-                continue;
-            }
-            "--memory" => {
-                o.memory = true;
-                continue;
-            }
-            _ => {}
-        }
-        if !flag.starts_with('-') {
-            if o.mesh.is_some() {
-                return Err(format!("{flag}: only one mesh, please (see --help)"));
-            }
-            o.mesh = Some(flag.into());
-            continue;
-        }
-        let value = args.next().ok_or(format!("{flag} needs a value (see --help)"))?;
-        let bad = |e: &dyn std::fmt::Display| format!("{flag} {value}: {e}");
-        let number = |v: &str| -> Result<f32, String> {
-            let x: f32 = v.parse().map_err(|e| bad(&e))?;
-            if x.is_finite() {
-                Ok(x)
-            } else {
-                Err(bad(&"must be a finite number"))
-            }
-        };
-        match flag.as_str() {
-            "--mesh" => o.mesh = Some(value.clone().into()),
-            "--azimuth" => o.azimuth = number(&value)?,
-            "--elevation" => o.elevation = number(&value)?,
-            "--distance" => o.distance = number(&value)?,
-            "--fov" => o.fov = number(&value)?,
-            "--view-height" => o.view_height = number(&value)?,
-            "--resolution" => o.size = Some(parse_size(&value)?),
-            "--supersample" => o.supersample = value.parse().map_err(|e| bad(&e))?,
-            "--backend" => o.backend = value.clone(),
-            "--repeat" => o.repeat = value.parse().map_err(|e| bad(&e))?,
-            "--out" => o.out = value.clone().into(),
-            _ => return Err(format!("unknown option {flag} (see --help)")),
-        }
-    }
-    if o.elevation.abs() >= 90.0 {
-        return Err(format!("--elevation {}: use a value strictly between -90 and 90", o.elevation));
-    }
-    if o.distance <= 0.0 {
-        return Err(format!("--distance {}: must be > 0", o.distance));
-    }
-    if !(o.fov > 0.0 && o.fov < 180.0) {
-        return Err(format!("--fov {}: use a value strictly between 0 and 180 degrees", o.fov));
-    }
-    if o.view_height <= 0.0 {
-        return Err(format!("--view-height {}: must be > 0", o.view_height));
-    }
-    backend(&o.backend)?;
-    Ok(Some(o))
-}
-
-/// The backend named `cpu`, `gpu` or `auto`.
-pub fn backend(name: &str) -> Result<Backend, String> {
-    match name {
-        "cpu" => Ok(Backend::Cpu),
-        "gpu" => Ok(Backend::Gpu(GpuOptions::from_env())),
-        "auto" => Ok(Backend::Auto),
-        _ => Err(format!("--backend {name}: use cpu, gpu or auto")),
-    }
-}
-
 /// The mesh the options name (normalised to radius 1) and a name for it.
 pub fn load(o: &Options) -> Result<(Mesh, String), Box<dyn std::error::Error>> {
-    let path = match (&o.mesh, o.memory) {
+    let path = match (o.mesh_path(), o.memory) {
         (Some(path), _) => path.clone(),
         (None, false) => return Ok((shapes::blob(24, 48).normalized(1.0), "built-in blob".into())),
         (None, true) => match std::env::var_os("DIFFSIL_ASSETS") {
@@ -228,8 +153,7 @@ pub fn load(o: &Options) -> Result<(Mesh, String), Box<dyn std::error::Error>> {
             }
         },
     };
-    let mesh = diffsil::gltf_io::load_mesh(&path)?;
-    let name = path.file_name().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    let (mesh, name) = common::load_mesh(&path)?;
     Ok((mesh.normalized(1.0), name))
 }
 
@@ -243,20 +167,6 @@ pub fn shifted(image: &Image, shift: u32) -> Image {
         }
     }
     out
-}
-
-/// Median of a non-empty list of seconds (0 when empty).
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Bytes as MiB.
@@ -387,7 +297,7 @@ fn render(o: &Options, mesh: &Mesh, name: &str) -> Result<(), Box<dyn std::error
     let camera = o.camera();
     camera.validate()?;
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, backend(&o.backend)?)?;
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     println!(
         "{name}: {} vertices, {} triangles, {} edges; {}x{}, F = {}, {} camera",
         mesh.positions().len(),
@@ -534,21 +444,18 @@ fn memory(o: &Options, mesh: &Mesh, name: &str) -> Result<(), Box<dyn std::error
 }
 
 fn main() {
-    if let Err(e) = run() {
+    let o = Options::parse();
+    if let Err(e) = run(&o) {
         eprintln!("render: {e}");
         std::process::exit(1);
     }
 }
 
-fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let Some(o) = parse_args(std::env::args().skip(1))? else {
-        println!("{HELP}");
-        return Ok(());
-    };
-    let (mesh, name) = load(&o)?;
+fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
+    let (mesh, name) = load(o)?;
     if o.memory {
-        memory(&o, &mesh, &name)
+        memory(o, &mesh, &name)
     } else {
-        render(&o, &mesh, &name)
+        render(o, &mesh, &name)
     }
 }

@@ -24,6 +24,9 @@
 @group(0) @binding(6) var<storage, read_write> classes: array<i32>;
 @group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
+// Entry point (one invocation per view × triangle): reads `screen`, `snapped`, `triangles`; counts
+// tile entries in `counts`, writes face orientations to `classes`, large-triangle lists to `bins` and
+// `occluders`, and counters to `status` (see the header).
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

@@ -25,6 +25,9 @@
 @group(0) @binding(6) var<storage, read> classes: array<i32>;
 @group(0) @binding(7) var<storage, read_write> occluders: array<vec4<f32>>;
 
+// Entry point (one invocation per view × triangle): reads `screen`, `snapped`, `triangles`, `classes`
+// and the CSR offsets in `bins`; appends each triangle to its tiles' lists in `bins` (cursors in
+// `counts`) with its record in `occluders` (see the header).
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

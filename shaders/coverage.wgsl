@@ -1,4 +1,4 @@
-// `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage.rs): the F×F sample masks of
+// `coverage` — twin of `cpu::coverage::coverage` (src/cpu/coverage/): the F×F sample masks of
 // every pixel of every view.
 //
 // Reads:  `frame`, `snapped` (from project.wgsl), `triangles`, `bins` (CSR offsets, per-tile triangle lists, per-view
@@ -29,6 +29,9 @@
 //!include shared/frame.wgsl
 //!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
+
+// Invocations per workgroup: one per pixel of the largest tile (256).
+const TILE_INVOCATIONS: u32 = MAX_GPU_TILE_SIZE * MAX_GPU_TILE_SIZE;
 
 @group(0) @binding(2) var<storage, read> triangles: array<u32>;
 @group(0) @binding(3) var<storage, read> bins: array<u32>;
@@ -172,7 +175,9 @@ fn chunk_cost(count: u32, lane: u32, lanes: u32, f: i32, tile_cols: vec2<i32>, t
     return cost;
 }
 
-@compute @workgroup_size(256)
+// Entry point (one workgroup per tile): reads `snapped`, `triangles`, the tile's lists in `bins`;
+// writes the tile's sample masks to `masks` and its loop count to `status` (see the header).
+@compute @workgroup_size(TILE_INVOCATIONS)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
     @builtin(num_workgroups) num_workgroups: vec3<u32>,
@@ -187,7 +192,7 @@ fn main(
     let r = vw.raster;
     let t = r.tile_size;
     let tile_pixels = t * t;
-    let lanes = 256u / tile_pixels;
+    let lanes = TILE_INVOCATIONS / tile_pixels;
     let lane = lid / tile_pixels;
     let pixel = lid % tile_pixels;
     let local_tile = g - vw.tile_offset;
@@ -225,7 +230,7 @@ fn main(
         return;
     }
     // (The first chunk's barrier orders this before the lanes' ORs.)
-    for (var w = lid; w < tile_pixels * wpp; w += 256u) {
+    for (var w = lid; w < tile_pixels * wpp; w += TILE_INVOCATIONS) {
         atomicStore(&sh_masks[w], 0u);
     }
     let large = frame.params.large_offset + view * frame.params.triangle_count;

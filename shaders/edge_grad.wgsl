@@ -95,7 +95,7 @@ fn args() {
 // walk the item's pixels in step and scan each pixel's occluder lists LANES entries at a time.
 // (2: with one or two parts per candidate, a dense mesh's items fit about one wave of workgroups
 // on a large GPU; not yet tuned on hardware.)
-const ITEMS: u32 = 2u;
+const ITEMS: u32 = EDGE_GRAD_ITEMS_PER_WORKGROUP;
 const LANES: u32 = 64u;
 // Intervals of one pixel kept in workgroup memory; past that they are recomputed from the lists.
 const SHARED: u32 = 64u;
@@ -398,6 +398,9 @@ fn item_setup(item: u32, parts: u32) -> Item {
     return it;
 }
 
+// Entry point (ITEMS candidate × part work items per workgroup): reads `screen`, `occluders`, `edges`,
+// `bins`, `classes`, `d_image`, `status`; writes one entry of `partials` per work item and the
+// segment counters of `status` (see the header).
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

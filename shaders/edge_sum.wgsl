@@ -19,6 +19,8 @@
 @group(0) @binding(5) var<storage, read_write> slots: array<EdgeGrad>;
 @group(0) @binding(6) var<storage, read> status: array<u32>;
 
+// Entry point (one invocation per view × edge): reads `screen`, `edges`, `classes`, `partials`,
+// `status`; writes the edge's gradient slot in `slots`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

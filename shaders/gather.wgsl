@@ -15,6 +15,8 @@
 @group(0) @binding(3) var<storage, read> slots: array<EdgeGrad>;
 @group(0) @binding(4) var<storage, read_write> grads: array<vec2<f32>>;
 
+// Entry point (one invocation per view × vertex): reads `edges`, `vertex_edges`, `slots`; writes the
+// vertex's gradient to `grads`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

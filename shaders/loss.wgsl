@@ -2,10 +2,10 @@
 // squared error of every view's image against its target, and its gradient, without the images
 // leaving the GPU.
 //
-// Reads:  `frame`, `image` (all views, from `resolve`), `target` (concatenated like the images).
+// Reads:  `frame`, `image` (all views, from `resolve`), `target_image` (concatenated like the images).
 // Writes: `d_image[p] = 2 · (image[p] − target[p])` for every pixel p of every view (the same f32
 //         bits as the CPU's `(2 · (f64(i) − f64(t))) as f32`: one rounding of an exact value), and
-//         `partials[tile] = Σ (image − target)²` over the tile's pixels (f32, summed in a fixed
+//         `tile_losses[tile] = Σ (image − target)²` over the tile's pixels (f32, summed in a fixed
 //         tree order: deterministic). The host adds each view's tiles in order, in f64.
 // Dispatch: one workgroup of 256 invocations per tile of all views (`total_tiles` workgroups,
 //         tiled into a 2D grid beyond 65,535); invocation `lid < tile_size²` takes one pixel.
@@ -16,10 +16,12 @@
 @group(0) @binding(1) var<storage, read> image: array<f32>;
 @group(0) @binding(2) var<storage, read> target_image: array<f32>;
 @group(0) @binding(3) var<storage, read_write> d_image: array<f32>;
-@group(0) @binding(4) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(4) var<storage, read_write> tile_losses: array<f32>;
 
 var<workgroup> sums: array<f32, 256>;
 
+// Entry point (one workgroup per tile): reads `image`, `target_image`; writes `d_image` for the
+// tile's pixels and the tile's squared error to `tile_losses`.
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
@@ -53,6 +55,6 @@ fn main(
         workgroupBarrier();
     }
     if lid == 0u {
-        partials[g] = sums[0];
+        tile_losses[g] = sums[0];
     }
 }

@@ -18,8 +18,6 @@
 //!include shared/exact.wgsl
 //!include shared/dispatch.wgsl
 
-const COORD_LIMIT: f32 = 1048576.0;
-
 @group(0) @binding(1) var<storage, read> cameras: array<ViewParams>;
 @group(0) @binding(2) var<storage, read> positions: array<f32>;
 @group(0) @binding(3) var<storage, read_write> screen: array<ScreenVertex>;
@@ -60,6 +58,8 @@ fn dot_glam(r: vec4<f32>, p: vec3<f32>) -> f32 {
     return no_fuse(x + z) + no_fuse(y + r.w);
 }
 
+// Entry point for 3D input (one invocation per view × vertex): reads `cameras`, `positions`; writes
+// `screen` and `snapped`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

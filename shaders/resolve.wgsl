@@ -13,6 +13,7 @@
 @group(0) @binding(1) var<storage, read> masks: array<u32>;
 @group(0) @binding(2) var<storage, read_write> image: array<f32>;
 
+// Entry point (one invocation per pixel): reads `masks`; writes `image`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,

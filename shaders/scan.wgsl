@@ -17,6 +17,8 @@
 var<workgroup> sums: array<u32, 256>;
 var<workgroup> overflow: atomic<u32>;
 
+// Entry point (one workgroup for the frame): reads `counts`; writes the CSR offsets to `bins` and the
+// entries needed to `status`.
 @compute @workgroup_size(256)
 fn main(@builtin(local_invocation_index) lid: u32) {
     let n = frame.params.total_tiles;

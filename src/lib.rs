@@ -17,7 +17,7 @@
 //! use diffsil::optim::Adam;
 //! use diffsil::{loss, shapes, Camera, Mesh, RenderSettings, Renderer, Vec3};
 //!
-//! // A mesh: built in, or from a file with `diffsil::gltf_io::load_mesh("bunny.obj")?`
+//! // A mesh: built in, or from a file with `diffsil::io::gltf::load_mesh("bunny.obj")?`
 //! // (.obj, .gltf, .glb).
 //! let mesh = shapes::icosphere(2);
 //! // A 64×64 perspective camera at (0, 0, 4) looking at the origin, vertical fov 0.8 rad.
@@ -69,36 +69,43 @@
 //!   ∂I/∂vb = (p1 − p0)·L·n·(sb² − sa²)/2
 //!   ```
 //!
-//!   ([`closed_form`]; the paper's Eqs. 12–16 in a simpler form). Only edges that can lie on the
+//!   ([`reference::closed_form`]; the paper's Eqs. 12–16 in a simpler form). Only edges that can lie on the
 //!   silhouette take part (open boundary edges and contour edges, whose adjacent faces lie on one
 //!   side), and only where the outside of the edge is not covered by another triangle: an edge
 //!   *inside* the silhouette gets an exact zero. The tests check every gradient against central
-//!   differences of an exact-area [`oracle`].
+//!   differences of an exact-area [`reference::oracle`].
 //!
-//! # Backends
+//! # Engines
 //!
 //! [`Renderer::with_backend`] takes a [`Backend`]: [`Backend::Cpu`] (also [`Renderer::new`]),
-//! [`Backend::Gpu`] (WGSL on wgpu; adapter from `DIFFSIL_ADAPTER` / `WGPU_BACKEND` with
-//! [`gpu::GpuOptions::from_env`]), or [`Backend::Auto`] (a hardware GPU if there is one, else the
-//! CPU). [`Renderer::backend_name`] says which one runs. Both give the same images (bit for bit
-//! for screen-space input) and the same gradients (to `f32` rounding), deterministically: no
-//! float atomics anywhere. The CPU backend ([`cpu`]) has one function per stage, each the twin of
-//! the WGSL shader of the same name.
+//! `Backend::Gpu` (WGSL on wgpu, feature `gpu`; adapter from `DIFFSIL_ADAPTER` / `WGPU_BACKEND`
+//! with `gpu::GpuOptions::from_env`), or [`Backend::Auto`] (a hardware GPU if there is one, else
+//! the CPU). [`Renderer::backend_name`] says which one runs. Both give the same images (bit for
+//! bit) and the same gradients (to `f32` rounding), deterministically: no float atomics anywhere.
+//! The CPU engine ([`cpu`]) has one function per stage, each the twin of the WGSL shader of the
+//! same name; `ARCHITECTURE.md` in the repository has the stage table.
 //!
-//! # Modules
+//! # Features
 //!
-//! | module | what it holds |
+//! - `gpu` (default): the WGSL engine on wgpu ([`Backend`]`::Gpu`, the `gpu` module).
+//! - `pose` (default): skinning, the built-in figure, the self-intersection penalty, pose fitting
+//!   (the `pose` module) and glTF/GLB files (`io::gltf`).
+//!
+//! `default-features = false` leaves the CPU renderer, the losses, Adam, OBJ/PNG files and the
+//! references, without wgpu, naga, gltf or obvhs.
+//!
+//! # The public API
+//!
+//! | where | what |
 //! |---|---|
-//! | [`camera`], [`Camera`] | perspective and orthographic cameras, their projection and Jacobian |
-//! | [`mesh`], [`shapes`] | meshes with shared per-topology tables; built-in icosphere and blob |
-//! | [`io`], [`gltf_io`] | OBJ, glTF/GLB (static and skinned) loading; PNG images and targets |
-//! | [`loss`] | squared error (paper Eq. 18) and soft IoU, each with `∂L/∂I` |
-//! | [`optim`] | Adam |
-//! | [`skin`], [`figure`] | linear-blend skinning and its backward to the pose; a built-in 24-joint figure |
-//! | [`self_intersection`] | the paper's self-intersection penalty (Eq. 19) |
-//! | [`fit`] | pose fitting to multi-view silhouettes (paper §4) |
-//! | [`oracle`], [`closed_form`] | the exact-area reference and the per-segment closed form |
-//! | [`cpu`], [`gpu`], [`layout`] | the two backends' stages and their shared buffer layouts |
+//! | crate root | [`Renderer`], [`RenderSettings`], [`Backend`], [`Frame`], [`ScreenView`], [`Targets`], [`Step`], [`RenderStats`], [`BackwardStats`], [`StageTiming`]; [`Camera`], [`Orbit`], [`Projection`], [`ViewParams`], [`Mesh`], [`Topology`], [`Image`]; [`Error`], [`Result`], [`COORD_LIMIT`]; [`Vec2`], [`Vec3`] |
+//! | [`scene`] | [`scene::camera`], [`scene::mesh`], [`scene::image`], [`shapes`] (icosphere, blob) |
+//! | [`loss`], [`optim`] | squared error (paper Eq. 18), soft IoU, blurred squared error, each with `∂L/∂I`; Adam |
+//! | [`io`] | OBJ loading, PNG images and targets, welding; `io::gltf` (feature `pose`): glTF/GLB static and skinned meshes |
+//! | `pose` (feature `pose`) | `pose::skin` (linear-blend skinning and its backward), `pose::figure` (a built-in 24-joint figure), `pose::self_intersection` (paper Eq. 19), `pose::fit` (pose fitting, paper §4) |
+//! | [`reference`](mod@reference) | the per-segment closed form and the exact-area oracle |
+//! | [`random`] | a seeded generator for reproducible scenes |
+//! | [`cpu`], `gpu`, [`mirror`] | the two engines' stages and the buffer layouts they share with WGSL |
 //!
 //! # Errors
 //!
@@ -114,40 +121,36 @@
 //! images, analytic against finite differences, the paper's Fig. 6) and `silhouette` (a quick
 //! gradient check).
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
-pub mod camera;
-pub mod closed_form;
+// Layers, bottom to top: every module imports only from the ones above it in this list.
 pub mod cpu;
+mod engine;
 mod error;
-pub mod figure;
-pub mod fit;
-pub mod gltf_io;
+#[cfg(feature = "gpu")]
 pub mod gpu;
-mod image;
 pub mod io;
-pub mod layout;
 pub mod loss;
-pub mod mesh;
+pub mod mirror;
 pub mod optim;
-pub mod oracle;
+#[cfg(feature = "pose")]
+pub mod pose;
+pub mod random;
+pub mod reference;
 mod render;
-pub mod self_intersection;
-pub mod shapes;
-pub mod skin;
+pub mod scene;
 
-pub use camera::{Camera, Projection, ViewParams};
+pub use engine::StageTiming;
 pub use error::{Error, Result};
-pub use image::Image;
-pub use mesh::{Mesh, Topology};
+pub use mirror::{ViewParams, COORD_LIMIT};
 pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
-
-/// Largest |pixel coordinate| a projected vertex may have; farther vertices are treated like
-/// vertices behind the camera (their triangles are culled). Keeps fixed-point coverage exact in
-/// 32-bit integers on the GPU.
-pub const COORD_LIMIT: f32 = 1_048_576.0;
+pub use scene::camera::{Camera, Orbit, Projection};
+pub use scene::image::Image;
+pub use scene::mesh::{Mesh, Topology};
+pub use scene::shapes;
 
 /// The README's Rust code, compiled and run by `cargo test` as doctests.
-#[cfg(doctest)]
+#[cfg(all(doctest, feature = "pose"))]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 

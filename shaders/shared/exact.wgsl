@@ -4,7 +4,7 @@
 // which changes the rounding, and Vulkan does not promise IEEE behaviour for every operation. Two
 // decisions must nevertheless be bit-identical to the CPU backend:
 //
-// - `snap(x, units)`: the CPU's `(x * units as f32 + 0.5).floor() as i32` (src/layout.rs), i.e.
+// - `snap(x, units)`: the CPU's `(x * units as f32 + 0.5).floor() as i32` (src/mirror.rs), i.e.
 //   floor of the f32-rounded sum of the f32-rounded product and 0.5. The product is one correctly
 //   rounded multiplication (nothing to fuse it with); the addition and floor are emulated on the
 //   product's bits.

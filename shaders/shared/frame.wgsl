@@ -1,7 +1,7 @@
 // The frame uniform every stage binds at @group(0) @binding(0), and helpers to find a view.
 //!include shared/layout.wgsl
 
-@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(0) var<uniform> frame: FrameUniform;
 
 // The view whose pixels (in the concatenation of all views' images) contain global pixel `p`.
 fn view_of_pixel(p: u32) -> u32 {

@@ -3,7 +3,7 @@
 // WGSL has no 64-bit integers on most adapters (lavapipe included), and the fixed-point edge
 // functions of `coverage` need products of two 31-bit values. Everything here is exact integer
 // arithmetic (wrapping modulo 2^64 like Rust's `wrapping_*`), so the GPU computes the same bits as
-// the CPU's `i64`. `tests/gpu_int64.rs` checks every function against Rust on random and extreme
+// the CPU's `i64`. `tests/gpu/exact.rs` checks every function against Rust on random and extreme
 // values.
 
 fn i64_from_i32(x: i32) -> vec2<u32> {

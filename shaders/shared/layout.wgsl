@@ -1,13 +1,17 @@
-// Buffer structs shared by the WGSL stages. Each is the twin of a `#[repr(C)]` Rust struct:
-// keep them in sync (`tests/gpu_layout.rs` round-trips every field through the GPU).
+// The structs and constants the WGSL stages share with Rust. Each struct is the twin of the
+// `#[repr(C)]` struct of the same name in src/mirror.rs, each constant of the Rust constant of the
+// same name there. The build checks them: build/shaders.rs reflects this file with naga and
+// src/mirror.rs asserts at compile time that every struct has the same size and member offsets
+// (members by name) and every constant the same value, so a mismatch fails the build.
+// (`tests/gpu/layout.rs` also round-trips every field through the GPU.)
 //
-//   ScreenVertex  <->  diffsil::layout::ScreenVertex   (16 bytes)
-//   RasterParams  <->  diffsil::layout::RasterParams   (48 bytes)
-//   EdgeGrad      <->  diffsil::layout::EdgeGrad       (16 bytes)
-//   ViewParams    <->  diffsil::camera::ViewParams     (80 bytes)
-//   GpuView       <->  diffsil::gpu::stages::GpuView   (64 bytes)
-//   FrameParams   <->  diffsil::gpu::stages::FrameParams (64 bytes)
-//   Frame         <->  diffsil::gpu::stages::FrameUniform (64 + 256·64 bytes, uniform)
+//   ScreenVertex   16 bytes
+//   RasterParams   48 bytes
+//   EdgeGrad       16 bytes
+//   ViewParams     80 bytes
+//   GpuView        64 bytes
+//   FrameParams    64 bytes
+//   FrameUniform   64 + MAX_VIEWS·64 bytes (uniform)
 
 // A projected vertex: pixel coordinates (x right, y down) and whether it may be used.
 struct ScreenVertex {
@@ -16,7 +20,7 @@ struct ScreenVertex {
     pad: u32,
 }
 
-// Per-view raster constants (see `RasterParams` in src/layout.rs). On the GPU `tile_size` is a
+// Per-view raster constants (see `RasterParams` in src/mirror.rs). On the GPU `tile_size` is a
 // power of two from 1 to 16 (`stages::gpu_tile_size`).
 struct RasterParams {
     width: u32,
@@ -39,7 +43,7 @@ struct EdgeGrad {
     b: vec2<f32>,
 }
 
-// Per-view camera constants (see `ViewParams` in src/camera.rs).
+// Per-view camera constants (see `ViewParams` in src/mirror.rs).
 struct ViewParams {
     row0: vec4<f32>,
     row1: vec4<f32>,
@@ -103,20 +107,35 @@ struct FrameParams {
     pad2: u32,
 }
 
-// A clipped vertex's snapped coordinates (`layout::INVALID_SNAPPED`).
+// A clipped vertex's snapped coordinates (both of them).
 const INVALID_SNAPPED: i32 = -2147483647 - 1;
 
 // Views per GPU frame (the size of the uniform array of views).
 const MAX_VIEWS: u32 = 256u;
 
+// Largest |pixel coordinate| of a valid projected vertex (`project`); farther vertices are clipped.
+const COORD_LIMIT: f32 = 1048576.0;
+
+// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.
+const MAX_GPU_TILE_SIZE: u32 = 16u;
+
+// Pixels per part of an edge in `edge_grad` (`part_length` in shared/parts.wgsl):
+// PART_LENGTH_PER_TILE_SIDE · tile_size, clamped to [PART_LENGTH_MIN, PART_LENGTH_MAX].
+const PART_LENGTH_PER_TILE_SIDE: u32 = 4u;
+const PART_LENGTH_MIN: u32 = 4u;
+const PART_LENGTH_MAX: u32 = 16u;
+
+// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main`.
+const EDGE_GRAD_ITEMS_PER_WORKGROUP: u32 = 2u;
+
 // The frame uniform (binding 0 of every stage): sizes and all views.
-struct Frame {
+struct FrameUniform {
     params: FrameParams,
     views: array<GpuView, MAX_VIEWS>,
 }
 
 // Layout of the `status` buffer (u32 counters, atomic where several invocations write; read back
-// with the image or the gradients; see `diffsil::gpu::stages::status`):
+// with the image or the gradients; see `STATUS_*` in src/mirror.rs):
 //   [0]                 bin entries needed (written by `scan`)
 //   [1]                 1 when the bin count overflowed u32 (written by `scan`)
 //   [2]                 candidate edges of all views (`edges`: the length of the candidate list)
@@ -145,7 +164,3 @@ const STATUS_LARGE: u32 = 4u;
 fn status_index(view: u32, counter: u32) -> u32 {
     return STATUS_VIEW_BASE + STATUS_VIEW_STRIDE * view + counter;
 }
-
-// A triangle listed in more tiles than this goes to its view's large-triangle list instead of the
-// tile lists (so no invocation loops over more than this many tiles).
-const LARGE_TILES: i32 = 64;

@@ -4,10 +4,10 @@
 //!include shared/layout.wgsl
 
 // Pixels per part along an edge's major axis for a view with tiles of `tile_size` pixels
-// (`stages::part_length`): dense meshes (small tiles) get short parts, whose pixels hold many
+// (`mirror::part_length`): dense meshes (small tiles) get short parts, whose pixels hold many
 // occluders.
 fn part_length(tile_size: u32) -> u32 {
-    return clamp(4u * tile_size, 4u, 16u);
+    return clamp(PART_LENGTH_PER_TILE_SIDE * tile_size, PART_LENGTH_MIN, PART_LENGTH_MAX);
 }
 
 // Where the parts of edge va → vb start and how many there are: part p covers the pixel lines

@@ -9,6 +9,10 @@
 //!include shared/frame.wgsl
 //!include shared/exact.wgsl
 
+// A triangle listed in more tiles than this goes to its view's large-triangle list instead of the
+// tile lists (so no invocation loops over more than this many tiles).
+const LARGE_TILES: i32 = 64;
+
 // Inclusive tile range (tx0, ty0, tx1, ty1) of the triangle with snapped vertices a, b, c in view
 // `view`, or tx0 = -1 when it is listed nowhere; `culled` is set when a vertex is clipped.
 struct TileRange {

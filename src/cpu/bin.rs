@@ -11,7 +11,7 @@
 
 use rayon::prelude::*;
 
-use crate::layout::{RasterParams, ScreenVertex, INVALID_SNAPPED};
+use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED_VERTEX};
 
 /// Per-tile triangle lists in CSR form.
 #[derive(Clone, Debug, Default)]
@@ -87,8 +87,8 @@ impl TileRange {
     #[inline(always)]
     fn of(&self, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
         let [a, b, c] = tri.map(|i| snapped[i as usize]);
-        // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
-        if a[0] == INVALID_SNAPPED[0] || b[0] == INVALID_SNAPPED[0] || c[0] == INVALID_SNAPPED[0] {
+        // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
+        if a[0] == INVALID_SNAPPED_VERTEX[0] || b[0] == INVALID_SNAPPED_VERTEX[0] || c[0] == INVALID_SNAPPED_VERTEX[0] {
             return None;
         }
         let lo = [a[0].min(b[0]).min(c[0]) as i64 - 1, a[1].min(b[1]).min(c[1]) as i64 - 1];
@@ -114,7 +114,7 @@ pub fn choose_tile_size(params: &RasterParams, snapped: &[[i32; 2]], triangles: 
         .with_min_len(4096)
         .filter_map(|tri| {
             let v = tri.map(|i| snapped[i as usize]);
-            if v.contains(&INVALID_SNAPPED) {
+            if v.contains(&INVALID_SNAPPED_VERTEX) {
                 return None;
             }
             let extent = |k: usize| {
@@ -245,8 +245,8 @@ fn tile_pairs<D: TileDiv>(
     let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
     for (k, tri) in chunk.iter().enumerate() {
         let [a, b, c] = tri.map(|i| snapped[i as usize]);
-        // A clipped vertex is INVALID_SNAPPED; valid coordinates are within ±2^29.
-        if a[0] == INVALID_SNAPPED[0] || b[0] == INVALID_SNAPPED[0] || c[0] == INVALID_SNAPPED[0] {
+        // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
+        if a[0] == INVALID_SNAPPED_VERTEX[0] || b[0] == INVALID_SNAPPED_VERTEX[0] || c[0] == INVALID_SNAPPED_VERTEX[0] {
             continue;
         }
         let x0 = a[0].min(b[0]).min(c[0]) as i64 - 1;
@@ -326,7 +326,7 @@ mod tests {
     /// The tile range as first written: pixel range by Euclidean division, then tiles.
     fn reference_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
         let v = tri.map(|i| snapped[i as usize]);
-        if v.contains(&INVALID_SNAPPED) {
+        if v.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
         let units = params.units as i32;

@@ -5,35 +5,17 @@
 //! rows it spans, then the columns within each row), clips the segment to each pixel with
 //! Liang–Barsky, removes the parts whose outside is covered by another triangle (exact intervals
 //! along the segment, from the triangles binned in the pixel's tile), and applies the closed form
-//! of DESIGN.md §2 ([`crate::closed_form`]). Each edge writes only its own slot: no atomics, and
+//! of ARCHITECTURE.md, *The method* ([`crate::reference::closed_form`]). Each edge writes only its own slot: no atomics, and
 //! the result does not depend on the thread count.
 
 use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
 use super::bin::{self, Bins};
-use crate::closed_form::{clip_parameter, segment_weights};
-use crate::layout::{EdgeGrad, RasterParams, ScreenVertex};
-use crate::mesh::Topology;
-
-/// Counts of (edge, pixel) segments the backward looked at.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SegmentStats {
-    /// Segments of candidate edges in pixels with a non-zero incoming gradient.
-    pub segments: u64,
-    /// Those with a visible (unoccluded) part.
-    pub visible_segments: u64,
-}
-
-impl std::ops::Add for SegmentStats {
-    type Output = SegmentStats;
-    fn add(self, o: SegmentStats) -> SegmentStats {
-        SegmentStats {
-            segments: self.segments + o.segments,
-            visible_segments: self.visible_segments + o.visible_segments,
-        }
-    }
-}
+use crate::engine::BackwardStats;
+use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
+use crate::reference::closed_form::{clip_parameter, segment_weights};
+use crate::scene::mesh::Topology;
 
 fn position(screen: &[ScreenVertex], v: u32) -> DVec2 {
     let p = screen[v as usize].position;
@@ -112,7 +94,7 @@ fn edge_geometry(screen: &[ScreenVertex], edge: [u32; 2], inside: i32) -> Option
     if inside == 0 || d == DVec2::ZERO {
         return None;
     }
-    // Outward normal times the edge length: the flux direction of DESIGN.md §2.
+    // Outward normal times the edge length: the flux direction of ARCHITECTURE.md, *The method*.
     Some((va, vb, inside as f64 * DVec2::new(d.y, -d.x)))
 }
 
@@ -252,8 +234,8 @@ fn accumulate(
     geometry: (DVec2, DVec2, DVec2),
     segments: &[Segment],
     scratch: &mut Scratch,
-) -> (EdgeGrad, SegmentStats) {
-    let mut stats = SegmentStats::default();
+) -> (EdgeGrad, BackwardStats) {
+    let mut stats = BackwardStats::default();
     let (mut wa, mut wb) = (0.0f64, 0.0f64);
     for segment in segments {
         stats.segments += 1;
@@ -290,7 +272,7 @@ pub fn edge_grad(
     candidates: &[(u32, i32)],
     d_image: &[f32],
     slots: &mut Vec<EdgeGrad>,
-) -> SegmentStats {
+) -> BackwardStats {
     let edges = topology.edges();
     let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
     // Walk every candidate edge once: its segments, grouped per task in candidate order.
@@ -322,7 +304,7 @@ pub fn edge_grad(
         }
     }
     let parts = bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize);
-    let mut results = vec![(EdgeGrad::default(), SegmentStats::default()); candidates.len()];
+    let mut results = vec![(EdgeGrad::default(), BackwardStats::default()); candidates.len()];
     results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
         |((out, chunk), (segments, ends))| {
             let mut scratch = Scratch::default();
@@ -338,7 +320,7 @@ pub fn edge_grad(
     );
     slots.clear();
     slots.extend(results.iter().map(|r| r.0));
-    results.iter().fold(SegmentStats::default(), |a, r| a + r.1)
+    results.iter().fold(BackwardStats::default(), |a, r| a + r.1)
 }
 
 #[cfg(test)]
@@ -356,8 +338,8 @@ mod tests {
         d_image: &[f32],
         edge: [u32; 2],
         inside: i32,
-    ) -> (EdgeGrad, SegmentStats) {
-        let mut stats = SegmentStats::default();
+    ) -> (EdgeGrad, BackwardStats) {
+        let mut stats = BackwardStats::default();
         let Some((va, vb, outward)) = edge_geometry(screen, edge, inside) else {
             return (EdgeGrad::default(), stats);
         };
@@ -439,7 +421,7 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let sphere = crate::shapes::icosphere(2);
+        let sphere = crate::scene::shapes::icosphere(2);
         let topology = sphere.topology();
         let mut hidden = 0;
         for case in 0..40 {
@@ -474,7 +456,7 @@ mod tests {
             let stats = edge_grad(&params, &screen, &snapped, topology, &candidates, &d_image, &mut slots);
             let mut full = Bins::default();
             bin::bin(&params, &screen, &snapped, topology.triangles(), &mut full);
-            let mut expected = SegmentStats::default();
+            let mut expected = BackwardStats::default();
             for (&(e, side), slot) in candidates.iter().zip(&slots) {
                 let edge = topology.edges()[e as usize];
                 let (grad, s) = reference_gradient(&params, &screen, topology.triangles(), &full, &d_image, edge, side);

@@ -15,8 +15,8 @@
 
 use rayon::prelude::*;
 
-use crate::layout::ScreenVertex;
-use crate::mesh::Topology;
+use crate::mirror::ScreenVertex;
+use crate::scene::mesh::Topology;
 
 /// Orientation of every face in screen space: the sign of `cross(v1 − v0, v2 − v0)` (+1, −1), or 0
 /// for a face with a clipped vertex or zero area. f32 differences and their products are exact

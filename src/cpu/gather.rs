@@ -2,8 +2,8 @@
 
 use glam::Vec2;
 
-use crate::layout::EdgeGrad;
-use crate::mesh::Topology;
+use crate::mirror::EdgeGrad;
+use crate::scene::mesh::Topology;
 
 /// Sums, for every vertex, the slots of its incident candidate edges in edge order. Reads the
 /// candidates `(edge, side)` (in edge order, as the `edges` stage lists them) and their `slots`

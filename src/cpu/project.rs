@@ -3,8 +3,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::camera::ViewParams;
-use crate::layout::{RasterParams, ScreenVertex};
+use crate::mirror::ViewParams;
+use crate::mirror::{RasterParams, ScreenVertex};
 
 /// Projects every vertex with `view`; clipped vertices get `valid = 0` and position zero.
 /// Reads `positions`, writes `screen` (same length).
@@ -16,7 +16,7 @@ pub fn project(view: &ViewParams, positions: &[Vec3], screen: &mut [ScreenVertex
 }
 
 /// Snaps every screen vertex to the fixed-point grid of `params` (the `snap` step that ends
-/// `shaders/project.wgsl`); clipped vertices become [`INVALID_SNAPPED`](crate::layout::INVALID_SNAPPED).
+/// `shaders/project.wgsl`); clipped vertices become [`INVALID_SNAPPED_VERTEX`](crate::mirror::INVALID_SNAPPED_VERTEX).
 /// Reads `screen`, writes `snapped` (same length).
 pub fn snap(params: &RasterParams, screen: &[ScreenVertex], snapped: &mut [[i32; 2]]) {
     snapped.par_iter_mut().with_min_len(4096).zip(screen.par_iter()).for_each(|(out, v)| {

@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use crate::layout::RasterParams;
+use crate::mirror::RasterParams;
 
 /// `I = p0 + (p1 − p0) · covered/F²` per pixel: exactly p0 with no sample covered, exactly p1
 /// with all covered, and never outside [p0, p1] in between. Reads `masks`, writes `image`.

@@ -1,142 +1,13 @@
-//! Adapter selection, the device, and the small helpers every GPU stage uses.
+//! The device and queue ([`GpuContext`]), error scopes, pipelines, bind groups, submission and 1D
+//! dispatches. Buffer creation is in `alloc.rs`, reading results back in `readback.rs`, adapter
+//! selection in `adapter.rs`.
 
 use std::borrow::Cow;
 use std::fmt;
-use std::sync::{mpsc, Arc, Mutex};
+use std::sync::{Arc, Mutex};
 
-use bytemuck::Pod;
-
+use super::adapter::{instance_from_env, select_adapter, AdapterReport, GpuOptions};
 use crate::{Error, Result};
-
-/// Which adapter [`GpuContext::new`] picks.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub enum AdapterChoice {
-    /// The best compute-capable adapter: discrete GPU, then integrated, then virtual, then any
-    /// other hardware, then a CPU (software) implementation such as lavapipe.
-    #[default]
-    Best,
-    /// The best adapter whose name contains this string, compared case-insensitively
-    /// (e.g. `"llvmpipe"`, `"nvidia"`).
-    Name(String),
-    /// The best adapter of these backends (e.g. `wgpu::Backends::VULKAN`).
-    Backend(wgpu::Backends),
-}
-
-impl fmt::Display for AdapterChoice {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            AdapterChoice::Best => f.write_str("the best adapter"),
-            AdapterChoice::Name(name) => write!(f, "an adapter whose name contains {name:?}"),
-            AdapterChoice::Backend(backends) => write!(f, "an adapter on backend(s) {backends:?}"),
-        }
-    }
-}
-
-/// How to set up the GPU.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct GpuOptions {
-    /// Which adapter to use.
-    pub adapter: AdapterChoice,
-    /// Time every stage on the GPU with timestamp queries (when the adapter supports them; see
-    /// [`crate::Renderer::gpu_stage_timings`]). Costs an extra wait per submission.
-    pub profile: bool,
-}
-
-impl GpuOptions {
-    /// Options from the environment.
-    ///
-    /// `DIFFSIL_ADAPTER` selects the adapter: `vulkan` (or `vk`), `gl` (`gles`, `opengl`),
-    /// `metal` (`mtl`) or `dx12` (`d3d12`) pick a backend; any other non-empty value is a
-    /// case-insensitive substring of the adapter name; unset or empty means
-    /// [`AdapterChoice::Best`]. Independently, wgpu's own `WGPU_BACKEND` (a comma list such as
-    /// `vulkan,gl`) restricts the backends that are looked at in the first place: it is read by
-    /// [`GpuContext::new`] and [`hardware_gpu_available`], whatever these options say.
-    /// `DIFFSIL_GPU_PROFILE=1` turns on [`GpuOptions::profile`].
-    pub fn from_env() -> Self {
-        let adapter = match std::env::var("DIFFSIL_ADAPTER") {
-            Ok(value) => parse_adapter_choice(&value),
-            Err(_) => AdapterChoice::Best,
-        };
-        let profile = std::env::var("DIFFSIL_GPU_PROFILE").is_ok_and(|v| !v.is_empty() && v != "0");
-        GpuOptions { adapter, profile }
-    }
-}
-
-fn parse_adapter_choice(value: &str) -> AdapterChoice {
-    let value = value.trim();
-    match value.to_ascii_lowercase().as_str() {
-        "" => AdapterChoice::Best,
-        "vulkan" | "vk" => AdapterChoice::Backend(wgpu::Backends::VULKAN),
-        "gl" | "gles" | "opengl" => AdapterChoice::Backend(wgpu::Backends::GL),
-        "metal" | "mtl" => AdapterChoice::Backend(wgpu::Backends::METAL),
-        "dx12" | "d3d12" => AdapterChoice::Backend(wgpu::Backends::DX12),
-        _ => AdapterChoice::Name(value.to_owned()),
-    }
-}
-
-/// What adapter a [`GpuContext`] runs on.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct AdapterReport {
-    /// The adapter's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
-    pub name: String,
-    /// The graphics API wgpu drives it through.
-    pub backend: wgpu::Backend,
-    /// Discrete, integrated, virtual, CPU or other.
-    pub device_type: wgpu::DeviceType,
-    /// The driver's name and version information, as reported.
-    pub driver: String,
-}
-
-impl AdapterReport {
-    fn from_info(info: &wgpu::AdapterInfo) -> Self {
-        let driver = match (info.driver.trim(), info.driver_info.trim()) {
-            (d, "") => d.to_owned(),
-            ("", i) => i.to_owned(),
-            (d, i) => format!("{d} {i}"),
-        };
-        AdapterReport { name: info.name.clone(), backend: info.backend, device_type: info.device_type, driver }
-    }
-}
-
-impl fmt::Display for AdapterReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} ({}, {:?}", self.name, self.backend, self.device_type)?;
-        if !self.driver.is_empty() {
-            write!(f, ", driver {}", self.driver)?;
-        }
-        f.write_str(")")
-    }
-}
-
-/// An instance honouring `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance variables).
-fn instance_from_env() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
-}
-
-fn supports_compute(adapter: &wgpu::Adapter) -> bool {
-    adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
-        && adapter.limits().max_compute_workgroups_per_dimension > 0
-}
-
-/// Lower is better.
-fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
-    match device_type {
-        wgpu::DeviceType::DiscreteGpu => 0,
-        wgpu::DeviceType::IntegratedGpu => 1,
-        wgpu::DeviceType::VirtualGpu => 2,
-        wgpu::DeviceType::Other => 3,
-        wgpu::DeviceType::Cpu => 4,
-    }
-}
-
-/// Whether a compute-capable adapter that is not a CPU implementation (lavapipe, llvmpipe,
-/// SwiftShader) exists, among the backends `WGPU_BACKEND` allows. Use it to choose between the
-/// GPU and the CPU backend automatically: on a machine with only a software rasterizer the CPU
-/// backend is faster.
-pub fn hardware_gpu_available() -> bool {
-    let adapters = pollster::block_on(instance_from_env().enumerate_adapters(wgpu::Backends::all()));
-    adapters.iter().any(|a| supports_compute(a) && a.get_info().device_type != wgpu::DeviceType::Cpu)
-}
 
 /// Errors wgpu reported outside any error scope, collected instead of panicking.
 type ErrorLog = Arc<Mutex<Vec<String>>>;
@@ -146,12 +17,12 @@ type ErrorLog = Arc<Mutex<Vec<String>>>;
 /// Every wgpu validation, out-of-memory or internal error becomes an [`Error::Gpu`]: the helpers
 /// catch errors in scopes, and errors raised elsewhere (by code using [`GpuContext::device`]
 /// directly) are collected and returned by [`GpuContext::check_errors`] (which
-/// [`GpuContext::submit`] and [`Readback`] call) instead of panicking.
+/// [`GpuContext::submit`] and [`Readback`](super::Readback) call) instead of panicking.
 pub struct GpuContext {
-    device: wgpu::Device,
+    pub(super) device: wgpu::Device,
     queue: wgpu::Queue,
     adapter: AdapterReport,
-    limits: wgpu::Limits,
+    pub(super) limits: wgpu::Limits,
     downlevel: wgpu::DownlevelCapabilities,
     errors: ErrorLog,
 }
@@ -298,7 +169,7 @@ impl GpuContext {
     /// Compiles the entry point `entry_point` of the embedded shader `shader` (a path under
     /// `shaders/`, e.g. `"smoke.wgsl"`, with its `//!include`s resolved) into a compute pipeline
     /// with an automatic layout (get its bind group layouts with
-    /// `pipeline.get_bind_group_layout(group)`, or use [`GpuContext::bind_buffers`]).
+    /// `pipeline.get_bind_group_layout(group)`).
     pub fn compute_pipeline(&self, shader: &str, entry_point: &str) -> Result<wgpu::ComputePipeline> {
         let resolved = super::shader::resolve(super::SHADERS, shader).map_err(|e| Error::Gpu(e.to_string()))?;
         self.create_compute_pipeline(shader, resolved.source, entry_point)
@@ -337,6 +208,8 @@ impl GpuContext {
 
     /// A bind group for `group` of `pipeline` (automatic layout) binding `buffers[i]`, whole, at
     /// binding `i`. Every binding the shader declares in that group must be given, in order.
+    /// (Test plumbing: the engine binds by reflected variable name, see `gpu::bindings`.)
+    #[doc(hidden)]
     pub fn bind_buffers(
         &self,
         label: &str,
@@ -361,7 +234,9 @@ impl GpuContext {
 
     /// A bind group for `group` of `pipeline` (automatic layout) binding each `(binding, buffer)`
     /// pair, whole. Unlike [`GpuContext::bind_buffers`] the bindings need not be consecutive (an
-    /// entry point's automatic layout holds only the bindings it uses).
+    /// entry point's automatic layout holds only the bindings it uses). (Test plumbing: the
+    /// engine binds by reflected variable name, see `gpu::bindings`.)
+    #[doc(hidden)]
     pub fn bind_entries(
         &self,
         label: &str,
@@ -384,113 +259,6 @@ impl GpuContext {
                 entries: &entries,
             })
         })
-    }
-
-    /// A `MAP_READ | COPY_DST` staging buffer of at least `bytes` bytes (rounded up to a multiple
-    /// of 4), to copy results into and read them with [`GpuContext::read_staging`].
-    pub fn staging_buffer(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
-        let size = padded_size(bytes);
-        self.check_size("max_buffer_size", size, self.limits.max_buffer_size)?;
-        self.create_buffer(label, size, wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, None)
-    }
-
-    /// Maps the first `bytes` bytes (a multiple of 4) of `staging` after all submitted work has
-    /// finished, copies them out and unmaps.
-    pub fn read_staging(&self, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
-        if bytes == 0 {
-            return Ok(Vec::new());
-        }
-        let slice = staging.slice(..bytes);
-        let (sender, receiver) = mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |result| {
-            let _ = sender.send(result);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
-        let mapped = receiver.recv().map_err(|_| Error::Gpu("the map callback never ran".into()))?;
-        if let Err(e) = mapped {
-            self.check_errors()?;
-            return Err(Error::Gpu(format!("mapping a staging buffer failed: {e}")));
-        }
-        let data = slice.get_mapped_range().map(|view| view.to_vec());
-        staging.unmap();
-        self.check_errors()?;
-        data.map_err(|e| Error::Gpu(format!("reading a staging buffer: {e}")))
-    }
-
-    fn check_size(&self, limit: &'static str, needed: u64, max: u64) -> Result<()> {
-        if needed > max {
-            Err(Error::GpuLimit { limit, needed, max })
-        } else {
-            Ok(())
-        }
-    }
-
-    fn check_storage_size(&self, bytes: u64) -> Result<()> {
-        self.check_size("max_storage_buffer_binding_size", bytes, self.limits.max_storage_buffer_binding_size)?;
-        self.check_size("max_buffer_size", bytes, self.limits.max_buffer_size)
-    }
-
-    fn create_buffer(
-        &self,
-        label: &str,
-        size: u64,
-        usage: wgpu::BufferUsages,
-        data: Option<&[u8]>,
-    ) -> Result<wgpu::Buffer> {
-        let buffer = self.scoped(&format!("creating buffer `{label}` ({size} bytes)"), || {
-            self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage,
-                mapped_at_creation: data.is_some(),
-            })
-        })?;
-        if let Some(data) = data {
-            let mut view = buffer
-                .get_mapped_range_mut(..)
-                .map_err(|e| Error::Gpu(format!("initialising buffer `{label}`: {e}")))?;
-            view.slice(..data.len()).copy_from_slice(data);
-            drop(view);
-            buffer.unmap();
-        }
-        Ok(buffer)
-    }
-
-    /// A zero-filled storage buffer of at least `bytes` bytes (rounded up to a multiple of 4, at
-    /// least 4), usable as `STORAGE | COPY_SRC | COPY_DST`. Checks the device's buffer limits
-    /// ([`Error::GpuLimit`]).
-    pub fn storage_buffer(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
-        let size = padded_size(bytes);
-        self.check_storage_size(size)?;
-        self.create_buffer(label, size, storage_usage(), None)
-    }
-
-    /// A zero-filled `STORAGE | INDIRECT` buffer of at least `bytes` bytes, for dispatch arguments
-    /// a shader writes.
-    pub fn indirect_buffer(&self, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
-        let size = padded_size(bytes);
-        self.check_storage_size(size)?;
-        self.create_buffer(label, size, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT, None)
-    }
-
-    /// A storage buffer holding `data` (padded with zeros to a multiple of 4 bytes, at least 4),
-    /// usable as `STORAGE | COPY_SRC | COPY_DST`.
-    pub fn storage_buffer_init<T: Pod>(&self, label: &str, data: &[T]) -> Result<wgpu::Buffer> {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        let size = padded_size(bytes.len() as u64);
-        self.check_storage_size(size)?;
-        self.create_buffer(label, size, storage_usage(), Some(bytes))
-    }
-
-    /// A uniform buffer holding `value` (padded with zeros to a multiple of 16 bytes), usable as
-    /// `UNIFORM | COPY_DST` (update it with `queue().write_buffer`).
-    pub fn uniform_buffer_init<T: Pod>(&self, label: &str, value: &T) -> Result<wgpu::Buffer> {
-        let bytes: &[u8] = bytemuck::bytes_of(value);
-        let size = (bytes.len() as u64).div_ceil(16).max(1) * 16;
-        self.check_size("max_uniform_buffer_binding_size", size, self.limits.max_uniform_buffer_binding_size)?;
-        self.create_buffer(label, size, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, Some(bytes))
     }
 
     /// A command encoder labelled `label`.
@@ -521,8 +289,9 @@ impl GpuContext {
     }
 }
 
-/// [`GpuContext::dispatch_1d`] with an explicit per-dimension limit (tests use a small one to
-/// exercise the 2D tiling).
+/// [`GpuContext::dispatch_1d`] with an explicit per-dimension limit (test plumbing: tests use a
+/// small one to exercise the 2D tiling).
+#[doc(hidden)]
 pub fn dispatch_1d_with_limit(
     pass: &mut wgpu::ComputePass<'_>,
     invocations: u32,
@@ -542,169 +311,4 @@ pub fn dispatch_1d_with_limit(
         pass.dispatch_workgroups(grid[0], grid[1], grid[2]);
     }
     Ok(grid)
-}
-
-fn storage_usage() -> wgpu::BufferUsages {
-    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST
-}
-
-/// Rounds up to a multiple of `wgpu::COPY_BUFFER_ALIGNMENT` (4), and to at least 4 bytes.
-fn padded_size(bytes: u64) -> u64 {
-    bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT).max(1) * wgpu::COPY_BUFFER_ALIGNMENT
-}
-
-async fn select_adapter(instance: &wgpu::Instance, choice: &AdapterChoice) -> Result<wgpu::Adapter> {
-    let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-    let seen: Vec<String> = adapters
-        .iter()
-        .map(|a| {
-            let report = AdapterReport::from_info(&a.get_info());
-            if supports_compute(a) {
-                report.to_string()
-            } else {
-                format!("{report} [no compute shaders]")
-            }
-        })
-        .collect();
-    let matches = |a: &wgpu::Adapter| {
-        let info = a.get_info();
-        match choice {
-            AdapterChoice::Best => true,
-            AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
-            AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
-        }
-    };
-    adapters
-        .into_iter()
-        .filter(|a| supports_compute(a) && matches(a))
-        .enumerate()
-        .min_by_key(|(order, a)| (device_type_rank(a.get_info().device_type), *order))
-        .map(|(_, a)| a)
-        .ok_or_else(|| {
-            let backends = match std::env::var("WGPU_BACKEND") {
-                Ok(value) => format!(" with WGPU_BACKEND={value:?}"),
-                Err(_) => String::new(),
-            };
-            let seen = if seen.is_empty() { "none".to_owned() } else { seen.join("; ") };
-            Error::NoAdapter(format!("wanted {choice}; adapters seen{backends}: {seen}"))
-        })
-}
-
-/// A reusable `MAP_READ` staging buffer for copying GPU buffers back to the CPU.
-///
-/// Keep one per output and reuse it across frames: it grows to the largest read and is
-/// recreated only then.
-#[derive(Debug)]
-pub struct Readback {
-    label: String,
-    staging: Option<wgpu::Buffer>,
-}
-
-impl Readback {
-    /// An empty readback; `label` names its staging buffer.
-    pub fn new(label: &str) -> Self {
-        Readback { label: label.to_owned(), staging: None }
-    }
-
-    /// Copies the first `count` elements of `source` (which needs `COPY_SRC`) back, waiting for
-    /// all previously submitted work.
-    pub fn read<T: Pod>(&mut self, ctx: &GpuContext, source: &wgpu::Buffer, count: usize) -> Result<Vec<T>> {
-        let encoder = ctx.encoder(&self.label);
-        self.submit_and_read(ctx, encoder, source, count)
-    }
-
-    /// Appends the copy of the first `count` elements of `source` to `encoder` (which may hold
-    /// the compute passes that produce them: one submission for both), submits it, waits, and
-    /// returns the elements.
-    pub fn submit_and_read<T: Pod>(
-        &mut self,
-        ctx: &GpuContext,
-        mut encoder: wgpu::CommandEncoder,
-        source: &wgpu::Buffer,
-        count: usize,
-    ) -> Result<Vec<T>> {
-        let bytes = count
-            .checked_mul(std::mem::size_of::<T>())
-            .ok_or_else(|| Error::Gpu(format!("readback `{}`: {count} elements overflow", self.label)))?
-            as u64;
-        if bytes == 0 {
-            ctx.submit(encoder)?;
-            return Ok(vec![T::zeroed(); count]);
-        }
-        let size = padded_size(bytes);
-        if size > source.size() {
-            return Err(Error::Gpu(format!(
-                "readback `{}`: {bytes} bytes ({size} with padding) requested from a buffer of {} bytes",
-                self.label,
-                source.size()
-            )));
-        }
-        let staging = match &self.staging {
-            Some(buffer) if buffer.size() >= size => buffer.clone(),
-            _ => {
-                let buffer = ctx.create_buffer(
-                    &self.label,
-                    size,
-                    wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    None,
-                )?;
-                self.staging = Some(buffer.clone());
-                buffer
-            }
-        };
-        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
-        ctx.submit(encoder)?;
-
-        let slice = staging.slice(..size);
-        let (sender, receiver) = mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |result| {
-            // The receiver waits below; if it is gone there is nobody to tell.
-            let _ = sender.send(result);
-        });
-        ctx.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Gpu(format!("readback `{}`: waiting for the GPU: {e}", self.label)))?;
-        let mapped = receiver
-            .recv()
-            .map_err(|_| Error::Gpu(format!("readback `{}`: the map callback never ran", self.label)))?;
-        if let Err(e) = mapped {
-            ctx.check_errors()?;
-            return Err(Error::Gpu(format!("readback `{}`: mapping failed: {e}", self.label)));
-        }
-        let result = slice.get_mapped_range().map(|view| bytemuck::pod_collect_to_vec(&view[..bytes as usize]));
-        staging.unmap();
-        ctx.check_errors()?;
-        result.map_err(|e| Error::Gpu(format!("readback `{}`: {e}", self.label)))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn adapter_choice_from_strings() {
-        assert_eq!(parse_adapter_choice(""), AdapterChoice::Best);
-        assert_eq!(parse_adapter_choice(" Vulkan "), AdapterChoice::Backend(wgpu::Backends::VULKAN));
-        assert_eq!(parse_adapter_choice("GL"), AdapterChoice::Backend(wgpu::Backends::GL));
-        assert_eq!(parse_adapter_choice("metal"), AdapterChoice::Backend(wgpu::Backends::METAL));
-        assert_eq!(parse_adapter_choice("dx12"), AdapterChoice::Backend(wgpu::Backends::DX12));
-        assert_eq!(parse_adapter_choice("LLVMpipe"), AdapterChoice::Name("LLVMpipe".into()));
-    }
-
-    #[test]
-    fn padding() {
-        assert_eq!(padded_size(0), 4);
-        assert_eq!(padded_size(1), 4);
-        assert_eq!(padded_size(4), 4);
-        assert_eq!(padded_size(5), 8);
-    }
-
-    #[test]
-    fn device_type_order() {
-        use wgpu::DeviceType::*;
-        let mut types = [Cpu, Other, VirtualGpu, IntegratedGpu, DiscreteGpu];
-        types.sort_by_key(|t| device_type_rank(*t));
-        assert_eq!(types, [DiscreteGpu, IntegratedGpu, VirtualGpu, Other, Cpu]);
-    }
 }

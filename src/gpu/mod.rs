@@ -5,15 +5,21 @@
 //! [`stages`] (one WGSL file per CPU stage, all views of a frame in one dispatch each, one
 //! submission per forward and one per backward; `Renderer::squared_error_step` runs forward,
 //! loss and backward in one submission). Screen-space input gives images bit-identical
-//! to the CPU backend's and gradients equal to ~1e-7 relative (`tests/gpu_vs_cpu.rs`).
+//! to the CPU backend's and gradients equal to ~1e-7 relative (`tests/gpu/vs_cpu.rs`).
 //!
-//! This module holds the plumbing the stages share:
-//! - [`GpuContext`]: adapter selection ([`GpuOptions`], [`AdapterChoice`], `DIFFSIL_ADAPTER`,
-//!   `WGPU_BACKEND`), the device, and helpers for pipelines, buffers, bind groups, submission
-//!   and 1D dispatches; [`Readback`] copies results back.
+//! This module holds the plumbing the stages share, one concern per file:
+//! - `adapter.rs`: adapter selection ([`GpuOptions`], [`AdapterChoice`], `DIFFSIL_ADAPTER`,
+//!   `WGPU_BACKEND`) and [`AdapterReport`]; `context.rs`: [`GpuContext`], the device, error
+//!   scopes, pipelines, submission and 1D dispatches; `alloc.rs`: buffer creation;
+//!   `readback.rs`: [`Readback`] and staging reads.
 //! - The shaders: every file under `shaders/` is validated by naga when the crate is built and
 //!   embedded in it ([`SHADERS`]); `//!include` directives are resolved by [`shader`], the same
-//!   code at build and run time. [`WORKGROUP_SIZES`] reflects each entry point's workgroup size.
+//!   code at build and run time. [`WORKGROUP_SIZES`] reflects each entry point's workgroup size
+//!   and [`BINDINGS`] the buffers it binds.
+//! - The engine: [`stages`] (the stage table), `pipelines.rs`, `buffers.rs` (topology and frame
+//!   buffers, sizing), [`bindings`] (bind groups by reflected variable name), `record.rs`
+//!   (passes, dispatches and the recording of a submission), `forward.rs`, `backward.rs`,
+//!   `backend.rs` (the backend's state) and `engine.rs` (the `Engine` interface).
 //!
 //! Every wgpu error becomes [`crate::Error::Gpu`]; a missing adapter is
 //! [`crate::Error::NoAdapter`]; a device limit that is too small is [`crate::Error::GpuLimit`].
@@ -48,17 +54,30 @@
 //! `workgroup_id.x + workgroup_id.y * num_workgroups.x`), bounds-checking it against its
 //! element count because the grid may have a few workgroups too many.
 
-pub(crate) mod backend;
+mod adapter;
+mod alloc;
+mod backend;
+mod backward;
+pub mod bindings;
+mod buffers;
 mod context;
+mod engine;
+mod forward;
+mod pipelines;
 mod profile;
+mod readback;
+mod record;
 pub mod shader;
 pub mod stages;
 
-pub use context::{
-    dispatch_1d_with_limit, hardware_gpu_available, AdapterChoice, AdapterReport, GpuContext, GpuOptions, Readback,
-};
+pub use adapter::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuOptions};
+#[doc(hidden)]
+pub use context::dispatch_1d_with_limit;
+pub use context::GpuContext;
+pub(crate) use engine::GpuEngine;
 pub(crate) use profile::StageTimer;
 pub use profile::StageTiming;
+pub use readback::Readback;
 
 use crate::{Error, Result};
 
@@ -66,7 +85,7 @@ mod embedded {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }
 
-pub use embedded::{SHADERS, WORKGROUP_SIZES};
+pub use embedded::{BINDINGS, SHADERS, WORKGROUP_SIZES};
 
 /// The text of the embedded shader `name` (a path under `shaders/`, e.g. `"smoke.wgsl"`) with its
 /// `//!include` directives resolved: exactly what [`GpuContext::compute_pipeline`] compiles.

@@ -6,19 +6,9 @@
 //! stage of the last forward and backward. Reading the timestamps back costs one more wait per
 //! submission, so leave it off when timing whole iterations.
 
+pub use crate::engine::StageTiming;
 use crate::gpu::GpuContext;
 use crate::Result;
-
-/// The GPU time one stage (one compute pass) took, or the host time of one part of a submission.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StageTiming {
-    /// The stage, named like its shader (`coverage`, `edge_grad`, …), or `host: …` for the CPU
-    /// side of a submission (recording and uploads, submitting, waiting for the results), timed
-    /// on the host's clock.
-    pub stage: &'static str,
-    /// Microseconds between the pass's start and end timestamps.
-    pub microseconds: f64,
-}
 
 /// Timestamp queries for up to `capacity` passes per submission.
 pub(crate) struct StageTimer {

@@ -1,21 +1,39 @@
-//! Buffer structs and frame layout of the WGSL stages (`shaders/*.wgsl`), twins of the structs in
-//! `shaders/shared/layout.wgsl` (`tests/gpu_layout.rs` round-trips every field through the GPU).
+//! The stage table of the GPU engine and the frame layout of the WGSL stages (`shaders/*.wgsl`);
+//! the buffer structs are in [`crate::mirror`], twins of `shaders/shared/layout.wgsl`.
 //!
 //! ## The stages
 //!
-//! | stage (shader)                         | CPU twin                      | one invocation per          |
-//! |----------------------------------------|-------------------------------|-----------------------------|
-//! | `project.wgsl` (`main` for 3D input, `snap_vertices` for screen input) | `cpu::project::project_and_snap` | view × vertex |
-//! | `bin_count.wgsl`, `scan.wgsl`, `bin_fill.wgsl` | `cpu::bin::bin`; `bin_count` also `cpu::edges::face_orientations` | view × triangle (scan: one workgroup) |
-//! | `coverage.wgsl`                        | `cpu::coverage::coverage`     | pixel; one workgroup per tile |
-//! | `resolve.wgsl`                         | `cpu::resolve::resolve`       | pixel                       |
-//! | `edges.wgsl`                           | `cpu::edges::edges`           | view × edge                 |
-//! | `edge_grad.wgsl`                       | `cpu::edge_grad::edge_grad`   | candidate edge × part; 64 lanes share 2 |
-//! | `gather.wgsl`                          | `cpu::gather::gather`         | view × vertex               |
+//! `STAGES` is the stage table: name, shader, entry point and how the stage dispatches. The
+//! buffers a stage binds are not listed in Rust: `build/shaders.rs` reflects them from the entry
+//! point ([`BINDINGS`](super::BINDINGS), with whether it reads or writes each) and the engine binds
+//! them by WGSL variable name (`gpu::bindings`). For reference, in submission order (buffers by
+//! WGSL name; every stage also reads the frame uniform `frame`):
+//!
+//! | stage | CPU twin | shader (entry point) | reads | writes | one work item per |
+//! |-------|----------|----------------------|-------|--------|-------------------|
+//! | `project` | `project_and_snap`, `src/cpu/project.rs` | `project.wgsl` (`main`) | `cameras`, `positions` | `screen`, `snapped` | view × vertex |
+//! | `snap` (screen input) | `snap`, `src/cpu/project.rs` | `project.wgsl` (`snap_vertices`) | `screen` | `snapped` | view × vertex |
+//! | `bin_count` | `bin`, `src/cpu/bin.rs`; `face_orientations`, `src/cpu/edges.rs` | `bin_count.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `status` | `counts`, `status`, `bins`, `classes`, `occluders` | view × triangle |
+//! | `scan` | `bin`, `src/cpu/bin.rs` | `scan.wgsl` | `counts` | `bins`, `status` | frame (one workgroup) |
+//! | `bin_fill` | `bin`, `src/cpu/bin.rs` | `bin_fill.wgsl` | `screen`, `snapped`, `triangles`, `counts`, `bins`, `classes` | `counts`, `bins`, `occluders` | view × triangle |
+//! | `coverage` | `coverage`, `src/cpu/coverage/` | `coverage.wgsl` | `snapped`, `triangles`, `bins`, `status` | `masks`, `status` | tile (a workgroup) |
+//! | `resolve` | `resolve`, `src/cpu/resolve.rs` | `resolve.wgsl` | `masks` | `image` | pixel |
+//! | `edges` | `edges`, `src/cpu/edges.rs` | `edges.wgsl` | `screen`, `triangles`, `edges`, `edge_faces`, `classes`, `status` | `classes`, `status` | view × edge |
+//! | `loss` (step) | `squared_error`, `src/loss.rs` | `loss.wgsl` | `image`, `target_image` | `d_image`, `tile_losses` | tile (a workgroup) |
+//! | `edge_grad_args` (fused step) | — | `edge_grad.wgsl` (`args`) | `status` | `status`, `dispatch_args` | frame (one invocation) |
+//! | `edge_grad` | `edge_grad`, `src/cpu/edge_grad.rs` | `edge_grad.wgsl` (`main`) | `screen`, `occluders`, `edges`, `bins`, `classes`, `d_image`, `status` | `partials`, `status` | candidate edge × part; 64 lanes share 2 |
+//! | `edge_sum` | `edge_grad` (its sum over an edge), `src/cpu/edge_grad.rs` | `edge_sum.wgsl` | `screen`, `edges`, `classes`, `partials`, `status` | `slots` | view × edge |
+//! | `gather` | `gather`, `src/cpu/gather.rs` | `gather.wgsl` | `edges`, `vertex_edges`, `slots` | `grads` | view × vertex |
+//!
+//! Uploaded by the host: `frame`, `screen` or `positions` and `cameras`, `d_image` (backward),
+//! `target_image` (step), and the topology (`triangles`, `edges`, `edge_faces`, `vertex_edges`);
+//! cleared by the encoder: `counts` and `status` (forward), the backward's `status` counters. The
+//! engine records each submission this way (`record.rs`), and a test checks that every buffer a
+//! stage reads was uploaded, cleared or written by an earlier stage.
 //!
 //! All views of a frame go through each stage in one dispatch: per-view buffers are concatenated
 //! (screen vertices `view · V + v`, edge slots `view · E + e`, pixels and tiles at the offsets of
-//! [`GpuView`]), and the frame uniform ([`FrameUniform`]) holds every view's constants.
+//! [`GpuView`]), and the frame uniform ([`FrameUniform`](crate::mirror::FrameUniform)) holds every view's constants.
 //!
 //! ## Tile size
 //!
@@ -30,24 +48,154 @@
 //! that contains the pixel. So GPU and CPU agree bit for bit on coverage, and the same triangles
 //! occlude the same segments, whatever tile sizes either picks.
 
-use crate::layout::RasterParams;
+use crate::mirror::{GpuView, RasterParams, EDGE_GRAD_ITEMS_PER_WORKGROUP, MAX_GPU_TILE_SIZE};
 
-/// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.
-pub const MAX_GPU_TILE_SIZE: u32 = 16;
-
-/// Pixels per part of an edge along its major axis in `edge_grad` for a view with tiles of
-/// `tile_size` pixels: 4 · tile_size, from 4 to 16 (keep in sync with `part_length` in
-/// `shaders/shared/parts.wgsl`, where the parts of an edge are counted from its own first pixel
-/// line). Dense meshes (small tiles) get short parts, so that no workgroup walks many pixels with
-/// long occluder lists.
-pub fn part_length(tile_size: u32) -> u32 {
-    (4 * tile_size).clamp(4, 16)
+/// A stage of the GPU engine: one compute entry point (see [`STAGES`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Stage {
+    Project,
+    Snap,
+    BinCount,
+    Scan,
+    BinFill,
+    Coverage,
+    Resolve,
+    Edges,
+    Loss,
+    EdgeGradArgs,
+    EdgeGrad,
+    EdgeSum,
+    Gather,
 }
 
-/// Work items (candidate edge × part) per workgroup of `edge_grad.wgsl`'s `main`, whose 64 lanes
-/// take the items one after another and split each pixel's occluder scan (keep in sync with
-/// `ITEMS` there).
-pub const EDGE_GRAD_ITEMS_PER_WORKGROUP: u32 = 2;
+/// How a stage's work items become workgroups (its `@workgroup_size` is reflected at build time,
+/// [`super::WORKGROUP_SIZES`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Grid {
+    /// One work item per invocation: `ceil(items / workgroup size)` workgroups.
+    PerInvocation,
+    /// One work item per workgroup (the workgroup's invocations share it).
+    PerWorkgroup,
+    /// This many work items per workgroup.
+    ItemsPerWorkgroup(u32),
+}
+
+/// One entry of the stage table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StageInfo {
+    /// The stage.
+    pub stage: Stage,
+    /// Its name in timings, labels and recordings.
+    pub name: &'static str,
+    /// Its shader, a path under `shaders/`.
+    pub shader: &'static str,
+    /// Its entry point in the shader.
+    pub entry_point: &'static str,
+    /// How it dispatches.
+    pub grid: Grid,
+}
+
+/// The stage table, in [`Stage`] order. The buffers a stage binds are the variables its entry point
+/// uses, reflected at build time ([`super::BINDINGS`]) and looked up by name (`gpu::bindings`).
+pub(crate) const STAGES: [StageInfo; 13] = [
+    StageInfo {
+        stage: Stage::Project,
+        name: "project",
+        shader: "project.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Snap,
+        name: "snap",
+        shader: "project.wgsl",
+        entry_point: "snap_vertices",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::BinCount,
+        name: "bin_count",
+        shader: "bin_count.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo { stage: Stage::Scan, name: "scan", shader: "scan.wgsl", entry_point: "main", grid: Grid::PerWorkgroup },
+    StageInfo {
+        stage: Stage::BinFill,
+        name: "bin_fill",
+        shader: "bin_fill.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Coverage,
+        name: "coverage",
+        shader: "coverage.wgsl",
+        entry_point: "main",
+        grid: Grid::PerWorkgroup,
+    },
+    StageInfo {
+        stage: Stage::Resolve,
+        name: "resolve",
+        shader: "resolve.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Edges,
+        name: "edges",
+        shader: "edges.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo { stage: Stage::Loss, name: "loss", shader: "loss.wgsl", entry_point: "main", grid: Grid::PerWorkgroup },
+    StageInfo {
+        stage: Stage::EdgeGradArgs,
+        name: "edge_grad_args",
+        shader: "edge_grad.wgsl",
+        entry_point: "args",
+        grid: Grid::PerWorkgroup,
+    },
+    StageInfo {
+        stage: Stage::EdgeGrad,
+        name: "edge_grad",
+        shader: "edge_grad.wgsl",
+        entry_point: "main",
+        grid: Grid::ItemsPerWorkgroup(EDGE_GRAD_ITEMS_PER_WORKGROUP),
+    },
+    StageInfo {
+        stage: Stage::EdgeSum,
+        name: "edge_sum",
+        shader: "edge_sum.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+    StageInfo {
+        stage: Stage::Gather,
+        name: "gather",
+        shader: "gather.wgsl",
+        entry_point: "main",
+        grid: Grid::PerInvocation,
+    },
+];
+
+impl Stage {
+    /// Every stage, in table order.
+    pub const ALL: [Stage; 13] = {
+        let mut all = [Stage::Project; 13];
+        let mut i = 0;
+        while i < STAGES.len() {
+            all[i] = STAGES[i].stage;
+            i += 1;
+        }
+        all
+    };
+
+    /// The stage's entry of [`STAGES`].
+    pub fn info(self) -> &'static StageInfo {
+        &STAGES[self as usize]
+    }
+}
 
 /// Tiles per view above which [`gpu_tile_size`] takes larger tiles (the `scan` stage is one
 /// workgroup).
@@ -66,129 +214,6 @@ pub fn gpu_tile_size(triangles: usize, width: u32, height: u32) -> u32 {
     }
     size.clamp(1, MAX_GPU_TILE_SIZE)
 }
-
-/// Views per GPU frame: the size of the uniform array of views (keep in sync with `MAX_VIEWS`).
-pub const MAX_VIEWS: usize = 256;
-
-/// One view of a multi-view GPU frame (keep in sync with `GpuView` in `shaders/shared/layout.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuView {
-    /// Raster constants, with the GPU's `tile_size` ([`gpu_tile_size`]).
-    pub raster: RasterParams,
-    /// First pixel of this view in the concatenated images (masks: times `words_per_pixel`).
-    pub pixel_offset: u32,
-    /// First tile of this view in the concatenated tile arrays.
-    pub tile_offset: u32,
-    /// Padding to 64 bytes.
-    pub pad: [u32; 2],
-}
-
-/// Sizes of a GPU frame (keep in sync with `FrameParams` in `shaders/shared/layout.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct FrameParams {
-    /// Number of views.
-    pub view_count: u32,
-    /// Vertices of the topology.
-    pub vertex_count: u32,
-    /// Triangles of the topology.
-    pub triangle_count: u32,
-    /// Edges of the topology.
-    pub edge_count: u32,
-    /// Tiles of all views.
-    pub total_tiles: u32,
-    /// Pixels of all views.
-    pub total_pixels: u32,
-    /// Capacity of the bin lists, entries.
-    pub bin_capacity: u32,
-    /// Index of the first list entry in the bins buffer (`total_tiles + 1`).
-    pub bin_list_offset: u32,
-    /// Index of the first face orientation in the classes buffer (`view_count · edge_count`).
-    pub orient_offset: u32,
-    /// Always 0 (an opaque zero that keeps shader compilers from fusing multiply-adds).
-    pub zero: u32,
-    /// Index of the first large-triangle list in the bins buffer (view `v`'s starts at
-    /// `large_offset + v · triangle_count`).
-    pub large_offset: u32,
-    /// The most parts a candidate edge can have in `edge_grad`: the largest
-    /// `floor(image side / part_length) + 1` of the views ([`part_length`]). The frame's own count
-    /// is [`status::PARTS`].
-    pub parts: u32,
-    /// Loop iterations one SIMD batch of invocations may run before `coverage` / `edge_grad` stop
-    /// and report it: [`LLVMPIPE_LOOP_BUDGET`] on llvmpipe, 0 (no limit) elsewhere.
-    pub loop_budget: u32,
-    /// Capacity of the `edge_grad` partials buffer, entries: a fused step whose candidates ×
-    /// parts exceed it skips `edge_grad` and flags [`status::PARTIALS_SHORT`].
-    pub partial_capacity: u32,
-    /// The device's `max_compute_workgroups_per_dimension`, for the indirect dispatch grid.
-    pub max_workgroups: u32,
-    /// Padding to 64 bytes.
-    pub pad: [u32; 1],
-}
-
-/// The frame uniform, binding 0 of every stage (keep in sync with `Frame` in
-/// `shaders/shared/layout.wgsl`). Only the first `64 + 64 · view_count` bytes are uploaded.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct FrameUniform {
-    /// Sizes.
-    pub params: FrameParams,
-    /// Per-view constants; entries past `view_count` are unused.
-    pub views: [GpuView; MAX_VIEWS],
-}
-
-/// Layout of the `status` buffer (u32 counters; see `shaders/shared/layout.wgsl`).
-pub mod status {
-    /// Bin entries the frame needs.
-    pub const NEEDED: usize = 0;
-    /// 1 when the bin entry count overflowed u32.
-    pub const OVERFLOW: usize = 1;
-    /// Candidate edges of all views (the length of the candidate list).
-    pub const CANDIDATE_TOTAL: usize = 2;
-    /// Most loop iterations one invocation of `coverage` or `edge_grad` ran.
-    pub const MAX_ITERATIONS: usize = 3;
-    /// 1 when a fused step skipped `edge_grad` because the partials buffer was too small.
-    pub const PARTIALS_SHORT: usize = 4;
-    /// Parts per candidate edge in `edge_grad`: the most any candidate has (at most
-    /// [`FrameParams::parts`](super::FrameParams::parts)).
-    pub const PARTS: usize = 5;
-    /// First per-view counter; view `v` has [`VIEW_STRIDE`] from `VIEW_BASE + VIEW_STRIDE·v`.
-    pub const VIEW_BASE: usize = 6;
-    /// Counters per view.
-    pub const VIEW_STRIDE: usize = 5;
-    /// Culled triangles (forward).
-    pub const CULLED: usize = 0;
-    /// Candidate edges (forward).
-    pub const CANDIDATES: usize = 1;
-    /// Segments (backward).
-    pub const SEGMENTS: usize = 2;
-    /// Visible segments (backward).
-    pub const VISIBLE: usize = 3;
-    /// Large triangles (forward).
-    pub const LARGE: usize = 4;
-
-    /// Words in the status buffer for `views` views.
-    pub fn len(views: usize) -> usize {
-        VIEW_BASE + VIEW_STRIDE * views
-    }
-
-    /// Index of counter `counter` of view `view`.
-    pub fn index(view: usize, counter: usize) -> usize {
-        VIEW_BASE + VIEW_STRIDE * view + counter
-    }
-}
-
-/// Loop iterations one shader invocation may run on Mesa's llvmpipe/lavapipe, which silently ends
-/// every loop of an invocation after 65,535 iterations in total (gallivm's loop limiter). The
-/// stages keep far below it (large triangles are listed per view instead of per tile, long edges
-/// are split into parts) and report their largest count, so that a scene beyond it is an
-/// [`crate::Error::GpuLimit`] there instead of a wrong result.
-pub const LLVMPIPE_LOOP_LIMIT: u32 = 65_535;
-
-/// Where the stages stop on llvmpipe: below [`LLVMPIPE_LOOP_LIMIT`] by a margin for the few loops
-/// they do not count.
-pub const LLVMPIPE_LOOP_BUDGET: u32 = 60_000;
 
 /// Where each view's data lies in the concatenated buffers of a frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -214,7 +239,8 @@ impl FrameLayout {
                 raster,
                 pixel_offset: pixels.min(u32::MAX as u64) as u32,
                 tile_offset: tiles.min(u32::MAX as u64) as u32,
-                pad: [0; 2],
+                pad0: 0,
+                pad1: 0,
             });
             pixels += raster.pixel_count() as u64;
             tiles += raster.tile_count() as u64;
@@ -226,6 +252,7 @@ impl FrameLayout {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mirror::{FrameParams, FrameUniform, MAX_VIEWS};
 
     #[test]
     fn sizes_match_the_wgsl_layout() {
@@ -233,8 +260,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuView>(), 64);
         assert_eq!(std::mem::size_of::<FrameParams>(), 64);
         assert_eq!(std::mem::size_of::<FrameUniform>(), 64 + 64 * MAX_VIEWS);
-        assert_eq!(std::mem::size_of::<crate::layout::ScreenVertex>(), 16);
-        assert_eq!(std::mem::size_of::<crate::layout::EdgeGrad>(), 16);
+        assert_eq!(std::mem::size_of::<crate::mirror::ScreenVertex>(), 16);
+        assert_eq!(std::mem::size_of::<crate::mirror::EdgeGrad>(), 16);
         assert_eq!(std::mem::size_of::<crate::ViewParams>(), 80);
     }
 

@@ -5,9 +5,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec3;
 
-use super::{Engine, Renderer};
-use crate::gpu::backend::{ForwardMode, Input};
-use crate::{loss, Camera, Error, Image, Mesh, RenderStats, Result};
+use super::Renderer;
+use crate::engine::{RenderStats, ViewInput};
+use crate::{Camera, Error, Image, Mesh, Result};
 
 static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
 
@@ -53,7 +53,7 @@ pub struct Step {
 
 impl Renderer {
     /// Renders `mesh` from each camera, takes the squared error of each image against its target
-    /// ([`loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
+    /// ([`crate::loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
     /// iteration of a silhouette fit.
     ///
     /// The result equals `render`, `loss::squared_error` per view and `backward` in sequence. On
@@ -74,63 +74,15 @@ impl Renderer {
         for (camera, target) in cameras.iter().zip(&targets.images) {
             target.expect_size("target", camera.width, camera.height)?;
         }
-        if let Engine::Gpu(gpu) = &mut self.engine {
-            let (views, params) = world_views(&self.settings, cameras)?;
-            let data: Vec<&[f32]> = targets.images.iter().map(|i| i.data()).collect();
-            let input = Input::World { positions: mesh.positions(), cameras: &views };
-            let mode = ForwardMode::Step { id: targets.id, targets: &data };
-            let mut out = gpu.forward(mesh.topology(), &params, input, mode)?;
-            let (screen_grads, stats) = match out.backward.take() {
-                Some(backward) => backward,
-                None => gpu.backward(out.frame, mesh.topology(), &params, input, None)?,
-            };
-            self.last_backward = stats;
-            let stats = params
-                .iter()
-                .enumerate()
-                .map(|(k, _)| RenderStats {
-                    culled_triangles: out.culled[k],
-                    candidate_edges: out.candidates[k],
-                    tile_size: out.tile_sizes[k],
-                })
-                .collect();
-            return Ok(Step {
-                loss: out.losses.iter().sum(),
-                view_losses: out.losses,
-                gradient: super::chain_to_3d(mesh.positions(), &views, &screen_grads),
-                stats,
-            });
-        }
-        let frame = self.render(mesh, cameras)?;
-        let mut view_losses = Vec::with_capacity(cameras.len());
-        let mut grads = Vec::with_capacity(cameras.len());
-        for (image, target) in frame.images().iter().zip(&targets.images) {
-            let l2 = loss::squared_error(image, target)?;
-            view_losses.push(l2.value);
-            grads.push(l2.grad);
-        }
-        let gradient = self.backward(&frame, &grads)?;
-        Ok(Step { loss: view_losses.iter().sum(), view_losses, gradient, stats: frame.stats().to_vec() })
+        let (views, params) = super::views::world_views(&self.settings, cameras)?;
+        let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
+        let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;
+        self.last_backward = out.backward;
+        Ok(Step {
+            loss: out.view_losses.iter().sum(),
+            view_losses: out.view_losses,
+            gradient: super::views::chain_to_3d(mesh.positions(), &views, &out.screen_grads),
+            stats: out.stats,
+        })
     }
-}
-
-/// Each camera's projection constants and raster parameters, validated.
-pub(super) fn world_views(
-    settings: &super::RenderSettings,
-    cameras: &[Camera],
-) -> Result<(Vec<crate::ViewParams>, Vec<crate::layout::RasterParams>)> {
-    let mut views = Vec::with_capacity(cameras.len());
-    let mut params = Vec::with_capacity(cameras.len());
-    for camera in cameras {
-        camera.validate()?;
-        views.push(camera.params());
-        params.push(crate::layout::RasterParams::new(
-            camera.width,
-            camera.height,
-            settings.supersample,
-            settings.inside,
-            settings.outside,
-        )?);
-    }
-    Ok((views, params))
 }

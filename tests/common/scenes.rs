@@ -22,7 +22,7 @@
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-use diffsil::{shapes, Camera, Mesh, ScreenView, Topology, Vec2, Vec3};
+use diffsil::{shapes, Camera, Mesh, Orbit, ScreenView, Topology, Vec2, Vec3};
 
 /// A 2D scene: screen-space vertices (pixels, y down) and triangles, with an image size.
 #[derive(Clone, Debug)]
@@ -213,7 +213,9 @@ pub fn orbit_cameras(n: usize, phase: f32, width: u32, height: u32) -> Vec<Camer
     (0..n)
         .map(|k| {
             let az = phase + 2.0 * PI * k as f32 / n as f32;
-            Camera::orbit(Vec3::new(0.023, -0.011, 0.017), az, 0.3, 3.2, 50f32.to_radians(), width, height)
+            let target = Vec3::new(0.023, -0.011, 0.017);
+            Orbit { target, azimuth: az, elevation: 0.3, distance: 3.2, fov_y: 50f32.to_radians() }
+                .camera(width, height)
         })
         .collect()
 }

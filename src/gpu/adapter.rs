@@ -1,0 +1,198 @@
+//! Adapter selection: which adapter a [`GpuContext`](super::GpuContext) opens ([`GpuOptions`],
+//! [`AdapterChoice`], `DIFFSIL_ADAPTER`, `WGPU_BACKEND`) and what it reports ([`AdapterReport`]).
+
+use std::fmt;
+
+use crate::{Error, Result};
+
+/// Which adapter [`GpuContext::new`](super::GpuContext::new) picks.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum AdapterChoice {
+    /// The best compute-capable adapter: discrete GPU, then integrated, then virtual, then any
+    /// other hardware, then a CPU (software) implementation such as lavapipe.
+    #[default]
+    Best,
+    /// The best adapter whose name contains this string, compared case-insensitively
+    /// (e.g. `"llvmpipe"`, `"nvidia"`).
+    Name(String),
+    /// The best adapter of these backends (e.g. `wgpu::Backends::VULKAN`).
+    Backend(wgpu::Backends),
+}
+
+impl fmt::Display for AdapterChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AdapterChoice::Best => f.write_str("the best adapter"),
+            AdapterChoice::Name(name) => write!(f, "an adapter whose name contains {name:?}"),
+            AdapterChoice::Backend(backends) => write!(f, "an adapter on backend(s) {backends:?}"),
+        }
+    }
+}
+
+/// How to set up the GPU.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct GpuOptions {
+    /// Which adapter to use.
+    pub adapter: AdapterChoice,
+    /// Time every stage on the GPU with timestamp queries (when the adapter supports them; see
+    /// [`crate::Renderer::gpu_stage_timings`]). Costs an extra wait per submission.
+    pub profile: bool,
+}
+
+impl GpuOptions {
+    /// Options from the environment.
+    ///
+    /// `DIFFSIL_ADAPTER` selects the adapter: `vulkan` (or `vk`), `gl` (`gles`, `opengl`),
+    /// `metal` (`mtl`) or `dx12` (`d3d12`) pick a backend; any other non-empty value is a
+    /// case-insensitive substring of the adapter name; unset or empty means
+    /// [`AdapterChoice::Best`]. Independently, wgpu's own `WGPU_BACKEND` (a comma list such as
+    /// `vulkan,gl`) restricts the backends that are looked at in the first place: it is read by
+    /// [`GpuContext::new`](super::GpuContext::new) and [`hardware_gpu_available`], whatever these options say.
+    /// `DIFFSIL_GPU_PROFILE=1` turns on [`GpuOptions::profile`].
+    pub fn from_env() -> Self {
+        let adapter = match std::env::var("DIFFSIL_ADAPTER") {
+            Ok(value) => parse_adapter_choice(&value),
+            Err(_) => AdapterChoice::Best,
+        };
+        let profile = std::env::var("DIFFSIL_GPU_PROFILE").is_ok_and(|v| !v.is_empty() && v != "0");
+        GpuOptions { adapter, profile }
+    }
+}
+
+pub(super) fn parse_adapter_choice(value: &str) -> AdapterChoice {
+    let value = value.trim();
+    match value.to_ascii_lowercase().as_str() {
+        "" => AdapterChoice::Best,
+        "vulkan" | "vk" => AdapterChoice::Backend(wgpu::Backends::VULKAN),
+        "gl" | "gles" | "opengl" => AdapterChoice::Backend(wgpu::Backends::GL),
+        "metal" | "mtl" => AdapterChoice::Backend(wgpu::Backends::METAL),
+        "dx12" | "d3d12" => AdapterChoice::Backend(wgpu::Backends::DX12),
+        _ => AdapterChoice::Name(value.to_owned()),
+    }
+}
+
+/// What adapter a [`GpuContext`](super::GpuContext) runs on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AdapterReport {
+    /// The adapter's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
+    pub name: String,
+    /// The graphics API wgpu drives it through.
+    pub backend: wgpu::Backend,
+    /// Discrete, integrated, virtual, CPU or other.
+    pub device_type: wgpu::DeviceType,
+    /// The driver's name and version information, as reported.
+    pub driver: String,
+}
+
+impl AdapterReport {
+    pub(super) fn from_info(info: &wgpu::AdapterInfo) -> Self {
+        let driver = match (info.driver.trim(), info.driver_info.trim()) {
+            (d, "") => d.to_owned(),
+            ("", i) => i.to_owned(),
+            (d, i) => format!("{d} {i}"),
+        };
+        AdapterReport { name: info.name.clone(), backend: info.backend, device_type: info.device_type, driver }
+    }
+}
+
+impl fmt::Display for AdapterReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({}, {:?}", self.name, self.backend, self.device_type)?;
+        if !self.driver.is_empty() {
+            write!(f, ", driver {}", self.driver)?;
+        }
+        f.write_str(")")
+    }
+}
+
+/// An instance honouring `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance variables).
+pub(super) fn instance_from_env() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+fn supports_compute(adapter: &wgpu::Adapter) -> bool {
+    adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        && adapter.limits().max_compute_workgroups_per_dimension > 0
+}
+
+/// Lower is better.
+fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
+    match device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+/// Whether a compute-capable adapter that is not a CPU implementation (lavapipe, llvmpipe,
+/// SwiftShader) exists, among the backends `WGPU_BACKEND` allows. Use it to choose between the
+/// GPU and the CPU backend automatically: on a machine with only a software rasterizer the CPU
+/// backend is faster.
+pub fn hardware_gpu_available() -> bool {
+    let adapters = pollster::block_on(instance_from_env().enumerate_adapters(wgpu::Backends::all()));
+    adapters.iter().any(|a| supports_compute(a) && a.get_info().device_type != wgpu::DeviceType::Cpu)
+}
+
+/// The adapter `choice` asks for, preferring discrete GPUs (see [`AdapterChoice::Best`]), or
+/// [`Error::NoAdapter`] listing the adapters seen.
+pub(super) async fn select_adapter(instance: &wgpu::Instance, choice: &AdapterChoice) -> Result<wgpu::Adapter> {
+    let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+    let seen: Vec<String> = adapters
+        .iter()
+        .map(|a| {
+            let report = AdapterReport::from_info(&a.get_info());
+            if supports_compute(a) {
+                report.to_string()
+            } else {
+                format!("{report} [no compute shaders]")
+            }
+        })
+        .collect();
+    let matches = |a: &wgpu::Adapter| {
+        let info = a.get_info();
+        match choice {
+            AdapterChoice::Best => true,
+            AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
+            AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
+        }
+    };
+    adapters
+        .into_iter()
+        .filter(|a| supports_compute(a) && matches(a))
+        .enumerate()
+        .min_by_key(|(order, a)| (device_type_rank(a.get_info().device_type), *order))
+        .map(|(_, a)| a)
+        .ok_or_else(|| {
+            let backends = match std::env::var("WGPU_BACKEND") {
+                Ok(value) => format!(" with WGPU_BACKEND={value:?}"),
+                Err(_) => String::new(),
+            };
+            let seen = if seen.is_empty() { "none".to_owned() } else { seen.join("; ") };
+            Error::NoAdapter(format!("wanted {choice}; adapters seen{backends}: {seen}"))
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adapter_choice_from_strings() {
+        assert_eq!(parse_adapter_choice(""), AdapterChoice::Best);
+        assert_eq!(parse_adapter_choice(" Vulkan "), AdapterChoice::Backend(wgpu::Backends::VULKAN));
+        assert_eq!(parse_adapter_choice("GL"), AdapterChoice::Backend(wgpu::Backends::GL));
+        assert_eq!(parse_adapter_choice("metal"), AdapterChoice::Backend(wgpu::Backends::METAL));
+        assert_eq!(parse_adapter_choice("dx12"), AdapterChoice::Backend(wgpu::Backends::DX12));
+        assert_eq!(parse_adapter_choice("LLVMpipe"), AdapterChoice::Name("LLVMpipe".into()));
+    }
+
+    #[test]
+    fn device_type_order() {
+        use wgpu::DeviceType::*;
+        let mut types = [Cpu, Other, VirtualGpu, IntegratedGpu, DiscreteGpu];
+        types.sort_by_key(|t| device_type_rank(*t));
+        assert_eq!(types, [DiscreteGpu, IntegratedGpu, VirtualGpu, Other, Cpu]);
+    }
+}

@@ -1,0 +1,118 @@
+//! The GPU engine: the WGSL stages (run by [`GpuBackend`]) behind the [`Engine`] interface.
+
+use std::any::Any;
+use std::sync::Arc;
+
+use glam::Vec2;
+
+use super::backend::{ForwardMode, ForwardOutput, GpuBackend, GpuFrame};
+use super::{AdapterReport, GpuContext};
+use crate::engine::{
+    BackwardStats, Engine, FrameRef, FrameState, RenderStats, Rendered, StageTiming, StepOutput, ViewInput,
+};
+use crate::mirror::{RasterParams, ScreenVertex};
+use crate::scene::mesh::Topology;
+use crate::{Error, Image, Result};
+
+/// The GPU engine: WGSL compute stages on one wgpu device.
+pub(crate) struct GpuEngine {
+    backend: GpuBackend,
+}
+
+impl GpuEngine {
+    /// Compiles the pipelines on `context`.
+    pub fn new(context: GpuContext) -> Result<GpuEngine> {
+        Ok(GpuEngine { backend: GpuBackend::new(context)? })
+    }
+}
+
+/// What a GPU forward keeps: which forward left the GPU buffers as they are, and (for screen-space
+/// input) the screen vertices, so the forward can run again should the buffers have been reused.
+struct GpuFrameState {
+    frame: GpuFrame,
+    screens: Vec<Vec<ScreenVertex>>,
+}
+
+impl FrameState for GpuFrameState {
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn screen_vertices(&self, view: usize) -> Option<Vec<Vec2>> {
+        self.screens.get(view).map(|s| s.iter().map(|v| Vec2::from(v.position)).collect())
+    }
+}
+
+/// Per-view statistics of a GPU forward.
+fn render_stats(out: &ForwardOutput) -> Vec<RenderStats> {
+    (0..out.culled.len())
+        .map(|k| RenderStats {
+            culled_triangles: out.culled[k],
+            candidate_edges: out.candidates[k],
+            tile_size: out.tile_sizes[k],
+        })
+        .collect()
+}
+
+impl Engine for GpuEngine {
+    fn describe(&self) -> String {
+        format!("gpu: {}", self.backend.adapter())
+    }
+
+    fn adapter(&self) -> Option<&AdapterReport> {
+        Some(self.backend.adapter())
+    }
+
+    fn stage_timings(&self) -> &[StageTiming] {
+        self.backend.stage_timings()
+    }
+
+    fn forward(&mut self, topology: &Arc<Topology>, params: &[RasterParams], input: ViewInput<'_>) -> Result<Rendered> {
+        let out = self.backend.forward(topology, params, input, ForwardMode::Images)?;
+        let stats = render_stats(&out);
+        let images = params
+            .iter()
+            .zip(out.images)
+            .map(|(p, image)| Image::from_vec(p.width, p.height, image))
+            .collect::<Result<Vec<_>>>()?;
+        let screens = match input {
+            ViewInput::Screen(screens) => screens.to_vec(),
+            ViewInput::World { .. } => Vec::new(),
+        };
+        Ok(Rendered { images, stats, state: Box::new(GpuFrameState { frame: out.frame, screens }) })
+    }
+
+    fn backward(&mut self, frame: FrameRef<'_>, d_images: &[&[f32]]) -> Result<(Vec<Vec<Vec2>>, Vec<BackwardStats>)> {
+        let Some(state) = frame.state.as_any().downcast_ref::<GpuFrameState>() else {
+            return Err(Error::InvalidFrame(
+                "this frame was rendered by the CPU engine, but this renderer runs on the GPU engine: \
+                 differentiate a frame with a renderer on the engine that rendered it"
+                    .into(),
+            ));
+        };
+        let input = match frame.world {
+            Some((positions, cameras)) => ViewInput::World { positions, cameras },
+            None => ViewInput::Screen(&state.screens),
+        };
+        self.backend.backward(state.frame, frame.topology, frame.params, input, Some(d_images))
+    }
+
+    fn squared_error_step(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: ViewInput<'_>,
+        targets_id: u64,
+        targets: &[Image],
+    ) -> Result<StepOutput> {
+        let data: Vec<&[f32]> = targets.iter().map(|i| i.data()).collect();
+        let mode = ForwardMode::Step { id: targets_id, targets: &data };
+        let mut out = self.backend.forward(topology, params, input, mode)?;
+        let (screen_grads, backward) = match out.backward.take() {
+            Some(backward) => backward,
+            None => self.backend.backward(out.frame, topology, params, input, None)?,
+        };
+        let stats = render_stats(&out);
+        Ok(StepOutput { view_losses: out.losses, screen_grads, stats, backward })
+    }
+}

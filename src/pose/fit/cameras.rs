@@ -1,0 +1,30 @@
+//! Cameras for a fit: a ring of views around a point, and a ring framing a mesh.
+
+use glam::Vec3;
+
+use crate::{Camera, Mesh, Orbit};
+
+/// Cameras on a circle around `around.target`: `views` azimuths evenly spaced from
+/// `around.azimuth` (0°, 90°, 180°, 270° for four views from azimuth 0), all with `around`'s
+/// elevation, distance and vertical field of view, square `resolution`.
+pub fn orbit_cameras(around: Orbit, views: u32, resolution: u32) -> Vec<Camera> {
+    (0..views)
+        .map(|k| {
+            let azimuth = around.azimuth + std::f32::consts::TAU * k as f32 / views as f32;
+            Orbit { azimuth, ..around }.camera(resolution, resolution)
+        })
+        .collect()
+}
+
+/// Cameras framing `mesh`: [`orbit_cameras`] aimed at its bounding-box centre, far enough that
+/// its bounding sphere fits the vertical field of view with a 10% margin.
+pub fn framing_cameras(mesh: &Mesh, views: u32, resolution: u32) -> Vec<Camera> {
+    let p = mesh.positions();
+    let (lo, hi) =
+        p.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let centre = if p.is_empty() { Vec3::ZERO } else { (lo + hi) * 0.5 };
+    let radius = p.iter().map(|v| (*v - centre).length()).fold(1e-3f32, f32::max);
+    let fov_y = 40f32.to_radians();
+    let distance = 1.1 * radius / (0.5 * fov_y).sin();
+    orbit_cameras(Orbit { target: centre, azimuth: 0.0, elevation: 0.0, distance, fov_y }, views, resolution)
+}

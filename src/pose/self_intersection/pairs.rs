@@ -1,0 +1,160 @@
+//! The crossing triangle pairs: a simultaneous descent of the BVH against itself, the
+//! shared-vertex filter and the exact test on what remains.
+
+use super::checker::SelfIntersectionChecker;
+use super::contact::{contact_f64, TriangleContact};
+use super::RebuildPolicy;
+
+impl SelfIntersectionChecker {
+    /// Self-traversal of the BVH, shared-vertex filter, exact test.
+    pub(super) fn find_crossing_pairs(&mut self) {
+        let mut work = self.traverse();
+        if let RebuildPolicy::Refit { factor } = self.policy {
+            if self.baseline_work == 0 {
+                self.baseline_work = work.max(1);
+            } else if work as f64 > factor.max(1.0) as f64 * self.baseline_work as f64 {
+                self.rebuild_bvh();
+                work = self.traverse();
+                self.baseline_work = work.max(1);
+            }
+        }
+        self.pairs.sort_unstable();
+    }
+
+    /// Fills `self.pairs` with the crossing pairs; returns the number of node pairs visited.
+    fn traverse(&mut self) -> usize {
+        self.pairs.clear();
+        self.candidates.clear();
+        let Some(bvh) = &self.bvh else { return 0 };
+        let nodes = &bvh.nodes;
+        if nodes.is_empty() {
+            return 0;
+        }
+        let prims = &bvh.primitive_indices;
+        // Boxes and triangles in the BVH's primitive order: a leaf's primitives are contiguous.
+        self.ordered_boxes.clear();
+        self.ordered_boxes.extend(prims.iter().map(|&p| self.aabbs[p as usize]));
+        self.ordered_tris.clear();
+        self.ordered_tris.extend(prims.iter().map(|&p| self.triangles[p as usize]));
+        let (boxes, tris) = (&self.ordered_boxes, &self.ordered_tris);
+        let candidates = &mut self.candidates;
+        // Hot path: box overlap and the shared-vertex filter only; exact tests come after.
+        let mut consider = |k: u32, l: u32| {
+            let (ti, tj) = (&tris[k as usize], &tris[l as usize]);
+            if !share_vertex(ti, tj) && boxes[k as usize].intersect_aabb(&boxes[l as usize]) {
+                candidates.push([k, l]);
+            }
+        };
+        let stack = &mut self.stack;
+        stack.clear();
+        stack.push((0, 0));
+        let mut work = 0usize;
+        while let Some((a, b)) = stack.pop() {
+            work += 1;
+            let (na, nb) = (&nodes[a as usize], &nodes[b as usize]);
+            if a == b {
+                if na.is_leaf() {
+                    let end = na.first_index + na.prim_count;
+                    for k in na.first_index..end {
+                        for l in k + 1..end {
+                            consider(k, l);
+                        }
+                    }
+                } else {
+                    let (l, r) = (na.first_index, na.first_index + 1);
+                    stack.push((l, l));
+                    stack.push((r, r));
+                    if nodes[l as usize].aabb().intersect_aabb(nodes[r as usize].aabb()) {
+                        stack.push((l, r));
+                    }
+                }
+                continue;
+            }
+            match (na.is_leaf(), nb.is_leaf()) {
+                (true, true) => {
+                    for k in na.first_index..na.first_index + na.prim_count {
+                        for l in nb.first_index..nb.first_index + nb.prim_count {
+                            consider(k, l);
+                        }
+                    }
+                }
+                (a_leaf, b_leaf) => {
+                    let split_a = !a_leaf && (b_leaf || na.aabb().half_area() >= nb.aabb().half_area());
+                    let (split, other) = if split_a { (na, b) } else { (nb, a) };
+                    let other_box = nodes[other as usize].aabb();
+                    for c in [split.first_index, split.first_index + 1] {
+                        if nodes[c as usize].aabb().intersect_aabb(other_box) {
+                            stack.push((c, other));
+                        }
+                    }
+                }
+            }
+        }
+        // Exact tests on the few non-neighbour candidates.
+        for &[k, l] in self.candidates.iter() {
+            let (i, j) = (prims[k as usize] as usize, prims[l as usize] as usize);
+            if self.degenerate[i] || self.degenerate[j] {
+                continue;
+            }
+            let a = self.triangles[i].map(|v| self.pos[v as usize]);
+            let b = self.triangles[j].map(|v| self.pos[v as usize]);
+            if contact_f64(&a, self.normals[i], &b, self.normals[j]) == TriangleContact::Crossing {
+                self.pairs.push([i.min(j) as u32, i.max(j) as u32]);
+            }
+        }
+        work
+    }
+}
+
+/// Whether two triangles share a vertex index (branch-free).
+#[inline(always)]
+fn share_vertex(a: &[u32; 3], b: &[u32; 3]) -> bool {
+    (a[0] == b[0])
+        | (a[0] == b[1])
+        | (a[0] == b[2])
+        | (a[1] == b[0])
+        | (a[1] == b[1])
+        | (a[1] == b[2])
+        | (a[2] == b[0])
+        | (a[2] == b[1])
+        | (a[2] == b[2])
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::pose::self_intersection::triangle_contact;
+
+    /// The BVH self-traversal finds exactly the box-overlapping pairs a brute-force scan finds.
+    #[test]
+    fn self_traversal_matches_brute_force() {
+        let sphere = crate::scene::shapes::icosphere(2);
+        // Two overlapping spheres as one mesh.
+        let mut positions: Vec<Vec3> = sphere.positions().to_vec();
+        let mut triangles: Vec<[u32; 3]> = sphere.triangles().to_vec();
+        let offset = positions.len() as u32;
+        positions.extend(sphere.positions().iter().map(|p| *p * 0.7 + Vec3::new(0.8, 0.1, 0.05)));
+        triangles.extend(sphere.triangles().iter().map(|t| t.map(|i| i + offset)));
+        let mut checker = SelfIntersectionChecker::from_triangles(positions.len(), &triangles).unwrap();
+        let result = checker.check(&positions).unwrap();
+        let mut brute = Vec::new();
+        for i in 0..triangles.len() {
+            for j in i + 1..triangles.len() {
+                let (ti, tj) = (triangles[i], triangles[j]);
+                if ti.iter().any(|v| tj.contains(v)) {
+                    continue;
+                }
+                let a = ti.map(|v| positions[v as usize]);
+                let b = tj.map(|v| positions[v as usize]);
+                if triangle_contact(a, b) == TriangleContact::Crossing {
+                    brute.push([i as u32, j as u32]);
+                }
+            }
+        }
+        assert!(!brute.is_empty());
+        assert_eq!(checker.crossing_pairs(), &brute[..]);
+        assert_eq!(result.intersecting_pairs, brute.len());
+    }
+}

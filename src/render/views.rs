@@ -1,0 +1,84 @@
+//! The views of a call, validated: cameras into projection and raster constants, screen-space
+//! views into screen vertices, and the chain from screen gradients back to 3D.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::RenderSettings;
+use crate::mirror::{RasterParams, ScreenVertex, ViewParams, COORD_LIMIT};
+use crate::scene::mesh::Topology;
+use crate::{Camera, Error, Result, ScreenView};
+
+/// Raster constants for a `width × height` view with these settings.
+pub(super) fn raster_params(settings: &RenderSettings, width: u32, height: u32) -> Result<RasterParams> {
+    RasterParams::new(width, height, settings.supersample, settings.inside, settings.outside)
+}
+
+/// Each camera's projection constants and raster parameters, validated.
+pub(super) fn world_views(
+    settings: &RenderSettings,
+    cameras: &[Camera],
+) -> Result<(Vec<ViewParams>, Vec<RasterParams>)> {
+    let mut views = Vec::with_capacity(cameras.len());
+    let mut params = Vec::with_capacity(cameras.len());
+    for camera in cameras {
+        camera.validate()?;
+        views.push(camera.params());
+        params.push(raster_params(settings, camera.width, camera.height)?);
+    }
+    Ok((views, params))
+}
+
+/// Each screen-space view's raster parameters and screen vertices, validated: one finite vertex
+/// per topology vertex; vertices beyond [`COORD_LIMIT`] are marked invalid (their triangles are
+/// culled).
+pub(super) fn screen_views(
+    settings: &RenderSettings,
+    topology: &Topology,
+    views: &[ScreenView],
+) -> Result<(Vec<RasterParams>, Vec<Vec<ScreenVertex>>)> {
+    let mut params = Vec::with_capacity(views.len());
+    let mut screens = Vec::with_capacity(views.len());
+    for view in views {
+        params.push(raster_params(settings, view.width, view.height)?);
+        if view.vertices.len() != topology.vertex_count() {
+            return Err(Error::LengthMismatch {
+                what: "screen vertices",
+                expected: topology.vertex_count(),
+                got: view.vertices.len(),
+            });
+        }
+        if let Some(vertex) = view.vertices.iter().position(|v| !v.is_finite()) {
+            let v = view.vertices[vertex];
+            return Err(Error::NonFiniteVertex { vertex, value: [v.x, v.y, 0.0] });
+        }
+        let screen = view
+            .vertices
+            .iter()
+            .map(|v| {
+                let valid = v.x.abs() < COORD_LIMIT && v.y.abs() < COORD_LIMIT;
+                ScreenVertex { position: if valid { v.to_array() } else { [0.0; 2] }, valid: valid as u32, pad: 0 }
+            })
+            .collect();
+        screens.push(screen);
+    }
+    Ok((params, screens))
+}
+
+/// `∂L/∂(screen vertex)` per view → `∂L/∂(3D vertex)` through each view's projection Jacobian,
+/// summed over views (in view order). The same code for both engines, so the 3D gradient is
+/// bit-identical given the same 2D gradients.
+pub(super) fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], screen_grads: &[Vec<Vec2>]) -> Vec<Vec3> {
+    let mut grads = vec![Vec3::ZERO; positions.len()];
+    // Per vertex, the views in order: the same sums whatever the thread count.
+    grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
+        for (view, g2) in views.iter().zip(screen_grads) {
+            let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
+            if d != Vec2::ZERO {
+                let [jx, jy] = view.jacobian(positions[v]);
+                *g += jx * d.x + jy * d.y;
+            }
+        }
+    });
+    grads
+}

@@ -1,0 +1,309 @@
+//! Cameras: 3D world points → 2D pixel coordinates, and the Jacobian of that map.
+//!
+//! Pixel coordinates are continuous: pixel (row i, column j) covers `[j, j+1] × [i, i+1]`, x to the
+//! right, y **down**, so the image spans `[0, width] × [0, height]`. Pixels are square: a
+//! perspective camera's horizontal field of view follows from the vertical one and `width/height`.
+
+use glam::{Mat3, Vec2, Vec3};
+
+use crate::mirror::ViewParams;
+use crate::{Error, Result};
+
+/// Largest supported image side, in pixels.
+pub const MAX_RESOLUTION: u32 = 16384;
+
+/// How camera-space points map to the image plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Pinhole perspective with a vertical field of view in radians.
+    Perspective {
+        /// Vertical field of view, radians, in (0, π).
+        fov_y: f32,
+    },
+    /// Parallel projection; `height` world units span the image height.
+    Orthographic {
+        /// World units spanned by the image height.
+        height: f32,
+    },
+}
+
+/// A camera looking from `eye` at `target`, rendering a `width × height` image.
+///
+/// Build one with [`Camera::perspective`], [`Camera::orthographic`], or, for a camera on a sphere
+/// around a point given by angles, [`Orbit::camera`].
+///
+/// Points whose depth along the viewing direction is not strictly between `near` and `far` are
+/// *clipped*: a triangle with such a vertex is dropped from the silhouette (counted in
+/// [`RenderStats::culled_triangles`](crate::RenderStats)) and gets no gradient. Nothing there
+/// produces NaN.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Position of the eye, world space.
+    pub eye: Vec3,
+    /// Point the camera looks at.
+    pub target: Vec3,
+    /// Approximate up direction (must not be parallel to `target - eye`).
+    pub up: Vec3,
+    /// Perspective or orthographic.
+    pub projection: Projection,
+    /// Near clipping depth (> 0 for perspective).
+    pub near: f32,
+    /// Far clipping depth (> near).
+    pub far: f32,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A perspective camera with up = +y, near = 0.01, far = 1000.
+    pub fn perspective(eye: Vec3, target: Vec3, fov_y: f32, width: u32, height: u32) -> Camera {
+        Camera {
+            eye,
+            target,
+            up: Vec3::Y,
+            projection: Projection::Perspective { fov_y },
+            near: 0.01,
+            far: 1000.0,
+            width,
+            height,
+        }
+    }
+
+    /// An orthographic camera with up = +y whose image height spans `view_height` world units;
+    /// near = 0 (points behind the eye are clipped), far = 1000.
+    pub fn orthographic(eye: Vec3, target: Vec3, view_height: f32, width: u32, height: u32) -> Camera {
+        Camera {
+            eye,
+            target,
+            up: Vec3::Y,
+            projection: Projection::Orthographic { height: view_height },
+            near: 0.0,
+            far: 1000.0,
+            width,
+            height,
+        }
+    }
+
+    /// Checks that the camera can form an image; every render calls this.
+    pub fn validate(&self) -> Result<()> {
+        if self.width == 0 || self.height == 0 || self.width > MAX_RESOLUTION || self.height > MAX_RESOLUTION {
+            return Err(Error::InvalidResolution { width: self.width, height: self.height, max: MAX_RESOLUTION });
+        }
+        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err(Error::InvalidCamera("eye, target and up must be finite".into()));
+        }
+        let forward = self.target - self.eye;
+        if forward.length_squared() < 1e-20 {
+            return Err(Error::InvalidCamera("eye and target coincide: the viewing direction is undefined".into()));
+        }
+        if forward.normalize().cross(self.up).length_squared() < 1e-12 {
+            return Err(Error::InvalidCamera(
+                "`up` is parallel to the viewing direction: choose another up vector".into(),
+            ));
+        }
+        if !(self.near.is_finite() && self.far.is_finite() && self.far > self.near) {
+            return Err(Error::InvalidCamera(format!(
+                "need finite near < far, got near {} far {}",
+                self.near, self.far
+            )));
+        }
+        match self.projection {
+            Projection::Perspective { fov_y } => {
+                if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) {
+                    return Err(Error::InvalidCamera(format!(
+                        "perspective fov_y must be in (0, π) radians, got {fov_y}"
+                    )));
+                }
+                if self.near <= 0.0 {
+                    return Err(Error::InvalidCamera(format!(
+                        "a perspective camera needs near > 0, got {}",
+                        self.near
+                    )));
+                }
+            }
+            Projection::Orthographic { height } => {
+                if !(height > 0.0 && height.is_finite()) {
+                    return Err(Error::InvalidCamera(format!("orthographic view height must be > 0, got {height}")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// World → camera rotation; rows are the camera's right, up and backward axes.
+    pub fn rotation(&self) -> Mat3 {
+        let back = (self.eye - self.target).normalize();
+        let right = self.up.cross(back).normalize();
+        let up = back.cross(right);
+        Mat3::from_cols(right, up, back).transpose()
+    }
+
+    /// The per-view constants the `project` stage uses (CPU and WGSL alike).
+    pub fn params(&self) -> ViewParams {
+        let r = self.rotation();
+        let t = -(r * self.eye);
+        let (scale, perspective) = match self.projection {
+            Projection::Perspective { fov_y } => (0.5 * self.height as f32 / (0.5 * fov_y).tan(), 1),
+            Projection::Orthographic { height } => (self.height as f32 / height, 0),
+        };
+        ViewParams {
+            row0: r.row(0).extend(t.x).to_array(),
+            row1: r.row(1).extend(t.y).to_array(),
+            row2: r.row(2).extend(t.z).to_array(),
+            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+            scale,
+            perspective,
+            near: self.near,
+            far: self.far,
+            width: self.width,
+            height: self.height,
+        }
+    }
+}
+
+/// Where a camera sits on a sphere around `target`, by angles: the named settings behind
+/// [`Orbit::camera`] (a perspective camera) and [`Orbit::eye`] (for any other projection).
+///
+/// ```
+/// use diffsil::{Orbit, Vec3};
+///
+/// // 30° round, 20° above, 3 units away, the default 50° field of view; 128 × 96 pixels.
+/// let camera = Orbit {
+///     azimuth: 30f32.to_radians(),
+///     elevation: 20f32.to_radians(),
+///     distance: 3.0,
+///     ..Orbit::default()
+/// }
+/// .camera(128, 96);
+/// assert!((camera.eye.length() - 3.0).abs() < 1e-6 && camera.target == Vec3::ZERO);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    /// The point looked at, at the sphere's centre. Default: the origin.
+    pub target: Vec3,
+    /// Radians about +y; 0 puts the eye on +z looking along −z, π/2 on +x. Default 0.
+    pub azimuth: f32,
+    /// Radians above the horizontal plane through `target`; positive looks down from above.
+    /// Default 0.
+    pub elevation: f32,
+    /// Distance from `target` to the eye. Default 2.7 (a mesh of radius 1 then fills about
+    /// 87% of the default field of view).
+    pub distance: f32,
+    /// Vertical field of view of [`Orbit::camera`], radians. Default 50° (`50f32.to_radians()`).
+    pub fov_y: f32,
+}
+
+impl Default for Orbit {
+    fn default() -> Self {
+        Orbit { target: Vec3::ZERO, azimuth: 0.0, elevation: 0.0, distance: 2.7, fov_y: 50f32.to_radians() }
+    }
+}
+
+impl Orbit {
+    /// The eye position: `target + distance · (cos el · sin az, sin el, cos el · cos az)`.
+    pub fn eye(&self) -> Vec3 {
+        let (azimuth, elevation) = (self.azimuth, self.elevation);
+        let dir = Vec3::new(elevation.cos() * azimuth.sin(), elevation.sin(), elevation.cos() * azimuth.cos());
+        self.target + dir * self.distance
+    }
+
+    /// A perspective camera ([`Camera::perspective`]: up = +y, near = 0.01, far = 1000) at
+    /// [`Orbit::eye`] looking at `target`, with field of view `fov_y`, rendering
+    /// `width × height` pixels.
+    pub fn camera(&self, width: u32, height: u32) -> Camera {
+        Camera::perspective(self.eye(), self.target, self.fov_y, width, height)
+    }
+}
+
+impl ViewParams {
+    #[inline]
+    fn camera_space(&self, p: Vec3) -> Vec3 {
+        let h = p.extend(1.0);
+        Vec3::new(
+            glam::Vec4::from(self.row0).dot(h),
+            glam::Vec4::from(self.row1).dot(h),
+            glam::Vec4::from(self.row2).dot(h),
+        )
+    }
+
+    /// Projects `p`: pixel coordinates, and whether the point is inside the near/far range and the
+    /// coordinate limit.
+    #[inline]
+    pub fn project(&self, p: Vec3) -> (Vec2, bool) {
+        let c = self.camera_space(p);
+        let depth = -c.z;
+        let in_range = depth > self.near && depth < self.far;
+        let (x, y) = if self.perspective == 1 {
+            if !in_range {
+                return (Vec2::ZERO, false);
+            }
+            (c.x / depth, c.y / depth)
+        } else {
+            (c.x, c.y)
+        };
+        let screen = Vec2::new(self.centre[0] + self.scale * x, self.centre[1] - self.scale * y);
+        let valid =
+            in_range && screen.x.abs() < crate::mirror::COORD_LIMIT && screen.y.abs() < crate::mirror::COORD_LIMIT;
+        (if valid { screen } else { Vec2::ZERO }, valid)
+    }
+
+    /// Jacobian of [`ViewParams::project`] at `p`: rows `∂x/∂p` and `∂y/∂p`. Zero for clipped points.
+    #[inline]
+    pub fn jacobian(&self, p: Vec3) -> [Vec3; 2] {
+        let c = self.camera_space(p);
+        let r0 = Vec3::from_slice(&self.row0[..3]);
+        let r1 = Vec3::from_slice(&self.row1[..3]);
+        let r2 = Vec3::from_slice(&self.row2[..3]);
+        if self.perspective == 1 {
+            let depth = -c.z;
+            if !(depth > self.near && depth < self.far) {
+                return [Vec3::ZERO; 2];
+            }
+            let k = self.scale / depth;
+            // d = −r2·p − t.z, so ∂(c.x/d)/∂p = r0/d + c.x·r2/d².
+            [k * (r0 + (c.x / depth) * r2), -k * (r1 + (c.y / depth) * r2)]
+        } else {
+            [self.scale * r0, -self.scale * r1]
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_of_view_projects_to_image_centre() {
+        let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 64, 32);
+        let (p, valid) = cam.params().project(Vec3::ZERO);
+        assert!(valid);
+        assert!((p - Vec2::new(32.0, 16.0)).length() < 1e-5);
+        // +y world is up on screen, i.e. smaller pixel y.
+        let (q, _) = cam.params().project(Vec3::new(0.0, 0.1, 0.0));
+        assert!(q.y < p.y);
+        let (r, _) = cam.params().project(Vec3::new(0.1, 0.0, 0.0));
+        assert!(r.x > p.x);
+    }
+
+    #[test]
+    fn behind_camera_is_invalid_and_zero() {
+        let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 64, 64);
+        let (p, valid) = cam.params().project(Vec3::new(0.0, 0.0, 4.0));
+        assert!(!valid);
+        assert_eq!(p, Vec2::ZERO);
+        assert_eq!(cam.params().jacobian(Vec3::new(0.0, 0.0, 4.0)), [Vec3::ZERO; 2]);
+    }
+
+    #[test]
+    fn orbit_angles_mean_what_they_say() {
+        let side = Orbit { azimuth: std::f32::consts::FRAC_PI_2, distance: 2.0, ..Orbit::default() };
+        assert!((side.eye() - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-6);
+        let above = Orbit { elevation: 0.5, target: Vec3::ONE, ..Orbit::default() };
+        assert!(above.eye().y > 1.0 && ((above.eye() - Vec3::ONE).length() - 2.7).abs() < 1e-5);
+        let camera = above.camera(40, 30);
+        assert_eq!((camera.width, camera.height, camera.target), (40, 30, Vec3::ONE));
+        assert_eq!(camera.projection, Projection::Perspective { fov_y: 50f32.to_radians() });
+    }
+}

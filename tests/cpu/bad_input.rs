@@ -1,0 +1,351 @@
+//! Bad and degenerate input: one test each. Invalid input is an `Error` (never a panic), and
+//! degenerate geometry renders and differentiates without NaN.
+
+use std::sync::Arc;
+
+use crate::common::scenes;
+use diffsil::{loss, Camera, Error, Frame, Image, Mesh, RenderSettings, Renderer, ScreenView, Topology, Vec2, Vec3};
+
+fn renderer() -> Renderer {
+    Renderer::new(RenderSettings::default()).unwrap()
+}
+
+fn camera(width: u32, height: u32) -> Camera {
+    Camera::perspective(Vec3::new(0.2, 0.1, 3.0), Vec3::ZERO, 0.9, width, height)
+}
+
+fn tri_mesh() -> Mesh {
+    Mesh::new(vec![Vec3::new(-0.6, -0.5, 0.0), Vec3::new(0.7, -0.4, 0.1), Vec3::new(0.1, 0.6, -0.1)], vec![[0, 1, 2]])
+        .unwrap()
+}
+
+fn ones(frame: &Frame) -> Vec<Image> {
+    frame.images().iter().map(|i| Image::filled(i.width(), i.height(), 1.0)).collect()
+}
+
+/// Renders screen-space `vertices`/`triangles` in a `w × h` image and runs the backward with
+/// `∂L/∂I = 1`: returns the image and the screen-space gradient, both checked free of NaN/inf.
+fn render_and_grad_2d(vertices: Vec<Vec2>, triangles: Vec<[u32; 3]>, w: u32, h: u32) -> (Image, Vec<Vec2>) {
+    let topology = Arc::new(Topology::new(vertices.len(), triangles).unwrap());
+    let mut r = renderer();
+    let frame = r.render_screen(&topology, &[ScreenView { vertices, width: w, height: h }]).unwrap();
+    let grads = r.backward_screen(&frame, &ones(&frame)).unwrap().remove(0);
+    let image = frame.images()[0].clone();
+    assert!(image.data().iter().all(|v| v.is_finite()), "non-finite pixel");
+    assert!(grads.iter().all(|g| g.is_finite()), "non-finite gradient");
+    (image, grads)
+}
+
+fn close(a: &[Vec2], b: &[Vec2]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (*x - *y).length() <= 1e-6 * (1.0 + x.length()))
+}
+
+#[test]
+fn nan_vertex_is_an_error() {
+    let p = vec![Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y];
+    assert!(matches!(Mesh::new(p.clone(), vec![[0, 1, 2]]), Err(Error::NonFiniteVertex { vertex: 1, .. })));
+    let mut mesh = tri_mesh();
+    assert!(matches!(mesh.set_positions(&p), Err(Error::NonFiniteVertex { vertex: 1, .. })));
+    assert!(mesh.positions().iter().all(|v| v.is_finite()), "a rejected update must not change the mesh");
+    let topology = mesh.topology().clone();
+    assert!(matches!(Mesh::with_topology(p, topology.clone()), Err(Error::NonFiniteVertex { vertex: 1, .. })));
+    let view = ScreenView { vertices: vec![Vec2::ZERO, Vec2::new(3.0, f32::NAN), Vec2::ONE], width: 8, height: 8 };
+    assert!(matches!(renderer().render_screen(&topology, &[view]), Err(Error::NonFiniteVertex { vertex: 1, .. })));
+}
+
+#[test]
+fn inf_vertex_is_an_error() {
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, f32::NEG_INFINITY, 0.0)];
+    assert!(matches!(Mesh::new(p, vec![[0, 1, 2]]), Err(Error::NonFiniteVertex { vertex: 2, .. })));
+    let topology = tri_mesh().topology().clone();
+    let view = ScreenView { vertices: vec![Vec2::new(f32::INFINITY, 1.0), Vec2::X, Vec2::ONE], width: 8, height: 8 };
+    assert!(matches!(renderer().render_screen(&topology, &[view]), Err(Error::NonFiniteVertex { vertex: 0, .. })));
+}
+
+#[test]
+fn index_out_of_range_is_an_error() {
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    let err = Mesh::new(p, vec![[0, 1, 2], [2, 1, 3]]).unwrap_err();
+    assert!(matches!(err, Error::IndexOutOfRange { triangle: 1, index: 3, vertex_count: 3 }), "{err}");
+    assert!(matches!(Topology::new(3, vec![[0, u32::MAX, 1]]), Err(Error::IndexOutOfRange { .. })));
+}
+
+#[test]
+fn zero_area_triangle_renders_nothing_and_has_zero_gradient() {
+    // Three exactly collinear vertices, alone and next to a regular triangle.
+    let line = vec![Vec2::new(2.0, 2.0), Vec2::new(10.0, 6.0), Vec2::new(18.0, 10.0)];
+    let (image, grads) = render_and_grad_2d(line.clone(), vec![[0, 1, 2]], 20, 14);
+    assert!(image.data().iter().all(|&v| v == 0.0));
+    assert!(grads.iter().all(|g| *g == Vec2::ZERO));
+    // With a regular triangle: the regular one renders and differentiates as if alone.
+    let mut vertices = scenes::triangle().vertices;
+    vertices.extend(line);
+    let (image, grads) = render_and_grad_2d(vertices.clone(), vec![[0, 1, 2], [3, 4, 5]], 24, 24);
+    let (alone_image, alone) = render_and_grad_2d(vertices[..3].to_vec(), vec![[0, 1, 2]], 24, 24);
+    assert_eq!(image, alone_image);
+    assert!(close(&grads[..3], &alone));
+    assert!(grads[3..].iter().all(|g| *g == Vec2::ZERO));
+    // In 3D, edge-on: a triangle in a plane through the eye.
+    let mesh = Mesh::new(
+        vec![Vec3::new(-0.5, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, -1.0)],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.9, 16, 16);
+    let mut r = renderer();
+    let frame = r.render(&mesh, &[cam]).unwrap();
+    let g = r.backward(&frame, &ones(&frame)).unwrap();
+    assert!(frame.images()[0].data().iter().all(|&v| v == 0.0));
+    assert!(g.iter().all(|g| g.is_finite()));
+}
+
+#[test]
+fn zero_length_edges_contribute_nothing() {
+    let base = scenes::triangle().vertices;
+    let (alone_image, alone) = render_and_grad_2d(base.clone(), vec![[0, 1, 2]], 24, 24);
+    // (a) Two coincident vertices (distinct indices): triangle 1–2–3 with vertex 3 on vertex 2,
+    // glued to the regular triangle along edge 1–2.
+    let mut v = base.clone();
+    v.push(base[2]);
+    let (image, grads) = render_and_grad_2d(v, vec![[0, 1, 2], [1, 2, 3]], 24, 24);
+    assert_eq!(image, alone_image);
+    assert!(close(&grads[..3], &alone), "{grads:?} vs {alone:?}");
+    assert_eq!(grads[3], Vec2::ZERO);
+    // (b) A repeated index: triangle 1–2–2.
+    let (image, grads) = render_and_grad_2d(base.clone(), vec![[0, 1, 2], [1, 2, 2]], 24, 24);
+    assert_eq!(image, alone_image);
+    assert!(close(&grads, &alone));
+    // (c) Alone, all three vertices at one point, and a repeated index in 3D.
+    let (image, grads) = render_and_grad_2d(vec![Vec2::splat(5.5); 3], vec![[0, 1, 2]], 12, 12);
+    assert!(image.data().iter().all(|&v| v == 0.0) && grads.iter().all(|g| *g == Vec2::ZERO));
+    let mesh = Mesh::new(vec![Vec3::ZERO, Vec3::X * 0.5], vec![[0, 1, 1], [0, 0, 0]]).unwrap();
+    let mut r = renderer();
+    let frame = r.render(&mesh, &[camera(16, 16)]).unwrap();
+    let g = r.backward(&frame, &ones(&frame)).unwrap();
+    assert!(frame.images()[0].data().iter().all(|&v| v == 0.0));
+    assert!(g.iter().all(|g| *g == Vec3::ZERO));
+}
+
+#[test]
+fn duplicate_triangles_change_nothing() {
+    let s = scenes::triangle();
+    let (alone_image, alone) = render_and_grad_2d(s.vertices.clone(), vec![[0, 1, 2]], 24, 24);
+    for triangles in [vec![[0, 1, 2], [0, 1, 2]], vec![[0, 1, 2], [2, 1, 0], [1, 2, 0]]] {
+        let (image, grads) = render_and_grad_2d(s.vertices.clone(), triangles.clone(), 24, 24);
+        assert_eq!(image, alone_image, "{triangles:?}");
+        assert!(close(&grads, &alone), "{triangles:?}: {grads:?} vs {alone:?}");
+    }
+    // A closed mesh with every face listed twice.
+    let sphere = diffsil::shapes::icosphere(1);
+    let doubled: Vec<[u32; 3]> = sphere.triangles().iter().flat_map(|&t| [t, [t[0], t[2], t[1]]]).collect();
+    let twice = Mesh::new(sphere.positions().to_vec(), doubled).unwrap();
+    let mut r = renderer();
+    let (f1, f2) = (r.render(&sphere, &[camera(24, 24)]).unwrap(), r.render(&twice, &[camera(24, 24)]).unwrap());
+    assert_eq!(f1.images(), f2.images());
+    let mut rng = crate::common::fd::Rng::new(3);
+    let w = vec![Image::from_vec(24, 24, rng.weights(576)).unwrap()];
+    let (g1, g2) = (r.backward(&f1, &w).unwrap(), r.backward(&f2, &w).unwrap());
+    assert!(g1.iter().zip(&g2).all(|(a, b)| (*a - *b).length() <= 1e-5 * (1.0 + a.length())));
+    assert!(g1.iter().any(|g| *g != Vec3::ZERO));
+}
+
+#[test]
+fn vertex_behind_the_camera_culls_its_triangles() {
+    let sphere = diffsil::shapes::icosphere(2);
+    let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.9, 32, 32);
+    // Pull vertex 0 far behind the eye.
+    let mut positions = sphere.positions().to_vec();
+    positions[0] = Vec3::new(0.3, 0.2, 5.0);
+    let mesh = Mesh::with_topology(positions.clone(), sphere.topology().clone()).unwrap();
+    let incident = mesh.triangles().iter().filter(|t| t.contains(&0)).count() as u32;
+    let mut r = renderer();
+    let frame = r.render(&mesh, &[cam]).unwrap();
+    assert_eq!(frame.stats()[0].culled_triangles, incident);
+    let mut rng = crate::common::fd::Rng::new(9);
+    let w = vec![Image::from_vec(32, 32, rng.weights(1024)).unwrap()];
+    let grads = r.backward(&frame, &w).unwrap();
+    assert!(frame.images()[0].data().iter().all(|v| v.is_finite()));
+    assert!(grads.iter().all(|g| g.is_finite()));
+    assert_eq!(grads[0], Vec3::ZERO, "a clipped vertex gets no gradient");
+    // The rest renders exactly as the mesh without those triangles (now an open mesh).
+    let kept: Vec<[u32; 3]> = mesh.triangles().iter().copied().filter(|t| !t.contains(&0)).collect();
+    let open = Mesh::new(positions, kept).unwrap();
+    let reference = r.render(&open, &[cam]).unwrap();
+    assert_eq!(reference.stats()[0].culled_triangles, 0);
+    assert_eq!(frame.images(), reference.images());
+    assert!(frame.images()[0].data().contains(&1.0), "the rest of the mesh must still render");
+    let expected = r.backward(&reference, &w).unwrap();
+    assert!(grads.iter().zip(&expected).all(|(a, b)| (*a - *b).length() <= 1e-5 * (1.0 + b.length())));
+    // The eye inside the mesh (every triangle has some vertex behind it or not): no NaN either.
+    let inside = Camera::perspective(Vec3::new(0.1, 0.0, 0.2), Vec3::new(0.0, 0.0, -1.0), 1.2, 16, 16);
+    let frame = r.render(&sphere, &[inside]).unwrap();
+    let grads = r.backward(&frame, &ones(&frame)).unwrap();
+    assert!(frame.images()[0].data().iter().all(|v| v.is_finite()) && grads.iter().all(|g| g.is_finite()));
+    // A screen vertex beyond the coordinate limit is culled the same way.
+    let s = scenes::quad();
+    let mut vertices = s.vertices.clone();
+    vertices[1] = Vec2::new(1.0e7, 3.0);
+    let frame = r.render_screen(&s.topology(), &[s.view_with(vertices)]).unwrap();
+    assert_eq!(frame.stats()[0].culled_triangles, 1);
+    let g = r.backward_screen(&frame, &ones(&frame)).unwrap();
+    assert!(g[0].iter().all(|g| g.is_finite()) && g[0][1] == Vec2::ZERO);
+}
+
+#[test]
+fn empty_mesh_renders_empty_image_and_zero_gradient() {
+    let settings = RenderSettings { supersample: 4, inside: 1.0, outside: 0.25 };
+    let mut r = Renderer::new(settings).unwrap();
+    for mesh in [Mesh::new(vec![], vec![]).unwrap(), Mesh::new(vec![Vec3::ZERO, Vec3::X], vec![]).unwrap()] {
+        let frame = r.render(&mesh, &[camera(16, 12)]).unwrap();
+        assert!(frame.images()[0].data().iter().all(|&v| v == 0.25), "empty image is the outside value");
+        assert_eq!(frame.stats()[0].culled_triangles, 0);
+        let g = r.backward(&frame, &ones(&frame)).unwrap();
+        assert_eq!(g.len(), mesh.positions().len());
+        assert!(g.iter().all(|g| *g == Vec3::ZERO));
+    }
+    let empty = Arc::new(Topology::new(0, vec![]).unwrap());
+    let frame = r.render_screen(&empty, &[ScreenView { vertices: vec![], width: 5, height: 7 }]).unwrap();
+    assert!(frame.images()[0].data().iter().all(|&v| v == 0.25));
+    assert_eq!(r.backward_screen(&frame, &ones(&frame)).unwrap(), vec![Vec::<Vec2>::new()]);
+}
+
+#[test]
+fn resolution_zero_is_an_error() {
+    let mesh = tri_mesh();
+    for (w, h) in [(0, 16), (16, 0), (0, 0)] {
+        let err = renderer().render(&mesh, &[camera(w, h)]).expect_err("error");
+        assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
+        let view = ScreenView { vertices: vec![Vec2::ZERO; 3], width: w, height: h };
+        let err = renderer().render_screen(mesh.topology(), &[view]).expect_err("error");
+        assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
+    }
+}
+
+#[test]
+fn resolution_too_large_is_an_error() {
+    let mesh = tri_mesh();
+    for (w, h) in [(100_000, 16), (16, 100_000), (u32::MAX, u32::MAX)] {
+        let err = renderer().render(&mesh, &[camera(w, h)]).expect_err("error");
+        assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
+        let view = ScreenView { vertices: vec![Vec2::ZERO; 3], width: w, height: h };
+        let err = renderer().render_screen(mesh.topology(), &[view]).expect_err("error");
+        assert!(matches!(err, Error::InvalidResolution { .. }), "{w}x{h}: {err}");
+    }
+}
+
+#[test]
+fn supersample_zero_is_an_error() {
+    let err = Renderer::new(RenderSettings { supersample: 0, ..RenderSettings::default() }).expect_err("error");
+    assert!(matches!(err, Error::InvalidSupersample(0)), "{err}");
+}
+
+#[test]
+fn supersample_seventeen_is_an_error() {
+    let err = Renderer::new(RenderSettings { supersample: 17, ..RenderSettings::default() }).expect_err("error");
+    assert!(matches!(err, Error::InvalidSupersample(17)), "{err}");
+    assert!(Renderer::new(RenderSettings { supersample: 16, ..RenderSettings::default() }).is_ok());
+}
+
+#[test]
+fn non_finite_pixel_values_are_an_error() {
+    for (inside, outside) in [(f32::NAN, 0.0), (1.0, f32::INFINITY)] {
+        let err = Renderer::new(RenderSettings { supersample: 4, inside, outside }).expect_err("error");
+        assert!(matches!(err, Error::InvalidSettings(_)), "{err}");
+    }
+}
+
+#[test]
+fn target_size_mismatch_is_an_error() {
+    let mut r = renderer();
+    let frame = r.render(&tri_mesh(), &[camera(32, 24)]).unwrap();
+    let image = &frame.images()[0];
+    for target in [Image::filled(24, 32, 0.0), Image::filled(32, 23, 0.0), Image::filled(0, 0, 0.0)] {
+        let err = loss::squared_error(image, &target).unwrap_err();
+        assert!(matches!(err, Error::SizeMismatch { expected_width: 32, expected_height: 24, .. }), "{err}");
+        assert!(matches!(loss::soft_iou(image, &target), Err(Error::SizeMismatch { .. })));
+    }
+    let ok = loss::squared_error(image, &Image::filled(32, 24, 0.0)).unwrap();
+    assert!(ok.value.is_finite() && ok.grad.data().iter().all(|g| g.is_finite()));
+}
+
+#[test]
+fn gradient_image_size_mismatch_is_an_error() {
+    let mut r = renderer();
+    let frame = r.render(&tri_mesh(), &[camera(32, 24)]).unwrap();
+    for bad in [Image::filled(24, 32, 1.0), Image::filled(32, 25, 1.0)] {
+        let err = r.backward(&frame, std::slice::from_ref(&bad)).unwrap_err();
+        assert!(matches!(err, Error::SizeMismatch { expected_width: 32, expected_height: 24, .. }), "{err}");
+        assert!(matches!(r.backward_screen(&frame, &[bad]), Err(Error::SizeMismatch { .. })));
+    }
+}
+
+#[test]
+fn wrong_number_of_gradient_images_is_an_error() {
+    let mut r = renderer();
+    let frame = r.render(&tri_mesh(), &[camera(16, 16), camera(8, 12)]).unwrap();
+    for count in [0, 1, 3] {
+        let d: Vec<Image> = (0..count).map(|_| Image::filled(16, 16, 1.0)).collect();
+        let err = r.backward(&frame, &d).unwrap_err();
+        assert!(matches!(err, Error::ViewCountMismatch { views: 2, .. }), "{count}: {err}");
+        assert!(matches!(r.backward_screen(&frame, &d), Err(Error::ViewCountMismatch { .. })));
+    }
+    // One per view, each of its own size, is fine.
+    assert!(r.backward(&frame, &ones(&frame)).is_ok());
+}
+
+#[test]
+fn non_finite_gradient_image_is_an_error() {
+    let mut r = renderer();
+    let frame = r.render(&tri_mesh(), &[camera(16, 16)]).unwrap();
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let mut d = Image::filled(16, 16, 0.5);
+        d.data_mut()[37] = bad;
+        assert!(r.backward(&frame, std::slice::from_ref(&d)).is_err(), "{bad} accepted");
+        assert!(r.backward_screen(&frame, &[d]).is_err(), "{bad} accepted");
+    }
+    // A NaN in the image or target of a loss is an error too.
+    let mut img = Image::filled(4, 4, 0.0);
+    img.data_mut()[3] = f32::NAN;
+    assert!(loss::squared_error(&img, &Image::filled(4, 4, 0.0)).is_err());
+    assert!(loss::squared_error(&Image::filled(4, 4, 0.0), &img).is_err());
+}
+
+#[test]
+fn screen_view_vertex_count_mismatch_is_an_error() {
+    let topology = tri_mesh().topology().clone();
+    let view = ScreenView { vertices: vec![Vec2::ZERO; 2], width: 8, height: 8 };
+    assert!(matches!(
+        renderer().render_screen(&topology, &[view]),
+        Err(Error::LengthMismatch { expected: 3, got: 2, .. })
+    ));
+}
+
+#[test]
+fn backward_of_a_screen_frame_is_an_error() {
+    let s = scenes::triangle();
+    let mut r = renderer();
+    let frame = r.render_screen(&s.topology(), &[s.view()]).unwrap();
+    assert!(matches!(r.backward(&frame, &ones(&frame)), Err(Error::InvalidFrame(_))));
+}
+
+#[test]
+fn invalid_cameras_are_errors() {
+    let mesh = tri_mesh();
+    let mut cams = vec![
+        Camera::perspective(Vec3::ONE, Vec3::ONE, 0.9, 8, 8), // eye == target
+        Camera::perspective(Vec3::Z * 3.0, Vec3::ZERO, 0.0, 8, 8), // fov 0
+        Camera::perspective(Vec3::Z * 3.0, Vec3::ZERO, f32::NAN, 8, 8), // fov NaN
+        Camera::orthographic(Vec3::Z * 3.0, Vec3::ZERO, -1.0, 8, 8), // negative height
+        Camera::perspective(Vec3::new(0.0, f32::NAN, 3.0), Vec3::ZERO, 0.9, 8, 8),
+    ];
+    let mut up = camera(8, 8);
+    up.up = Vec3::new(0.2, 0.1, 3.0); // parallel to the viewing direction
+    cams.push(up);
+    let mut near = camera(8, 8);
+    near.near = 0.0; // perspective needs near > 0
+    cams.push(near);
+    for (k, cam) in cams.iter().enumerate() {
+        let err = renderer().render(&mesh, &[*cam]).err().unwrap_or_else(|| panic!("camera {k} accepted"));
+        assert!(matches!(err, Error::InvalidCamera(_)), "camera {k}: {err}");
+    }
+}

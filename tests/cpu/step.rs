@@ -1,0 +1,43 @@
+//! `Renderer::squared_error_step` (render + squared error + backward in one call) against the same
+//! three calls made separately, on the CPU and, where there is an adapter, on the GPU, whose loss
+//! stage keeps the images on the device.
+//!
+//! Here: the CPU; the GPU's are in `tests/gpu`, the shared scene in `common::step`.
+
+use crate::common::step::{cameras, mesh, separately, targets};
+use diffsil::{Error, Image, RenderSettings, Renderer, Targets, Vec3};
+
+#[test]
+fn cpu_step_equals_render_loss_backward() {
+    let (mesh, cameras) = (mesh(), cameras());
+    let targets = targets(&mesh, &cameras, Vec3::new(0.04, -0.03, 0.0));
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let step = renderer.squared_error_step(&mesh, &cameras, &targets).unwrap();
+    let (loss, view_losses, gradient) = separately(&mut renderer, &mesh, &cameras, &targets);
+    assert!(loss > 0.0);
+    assert_eq!(step.loss, loss);
+    assert_eq!(step.view_losses, view_losses);
+    assert_eq!(step.gradient, gradient);
+    assert_eq!(step.stats.len(), 2);
+}
+
+#[test]
+fn step_rejects_mismatched_targets() {
+    let (mesh, cameras) = (mesh(), cameras());
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let good = targets(&mesh, &cameras, Vec3::ZERO);
+    let one = Targets::new(vec![good.images()[0].clone()]).unwrap();
+    assert!(matches!(
+        renderer.squared_error_step(&mesh, &cameras, &one),
+        Err(Error::ViewCountMismatch { views: 2, got: 1, .. })
+    ));
+    let swapped = Targets::new(vec![good.images()[1].clone(), good.images()[0].clone()]).unwrap();
+    assert!(matches!(renderer.squared_error_step(&mesh, &cameras, &swapped), Err(Error::SizeMismatch { .. })));
+    let mut bad = Image::filled(4, 4, 0.0).data().to_vec();
+    bad[5] = f32::NAN;
+    assert!(matches!(Targets::new(vec![Image::from_vec(4, 4, bad).unwrap()]), Err(Error::InvalidSettings(_))));
+    // A perfect fit: zero loss and zero gradient.
+    let step = renderer.squared_error_step(&mesh, &cameras, &good).unwrap();
+    assert_eq!(step.loss, 0.0);
+    assert!(step.gradient.iter().all(|g| *g == Vec3::ZERO));
+}

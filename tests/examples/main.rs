@@ -1,0 +1,12 @@
+//! The examples' command lines and functions, one test binary: each module includes its example's
+//! source with `#[path]` and calls its functions on small inputs.
+
+// Each included example declares `mod common;` (examples/common), so this binary holds a copy
+// per example; they never meet.
+#![allow(clippy::duplicate_mod)]
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod gradient_maps;
+mod render;

@@ -1,0 +1,94 @@
+//! The backend choice in the public API, and the GPU backend's limits: `Backend::Auto` picks a
+//! hardware GPU or the CPU, a named adapter is reported, frames beyond the device's limits are
+//! `Error::GpuLimit` (never a wgpu panic), and a frame is differentiated correctly even after the
+//! renderer has rendered other frames (its GPU state is rebuilt).
+//!
+//! Run on lavapipe with `WGPU_BACKEND=vulkan DIFFSIL_REQUIRE_GPU=1 cargo test --test gpu backend::`.
+
+use crate::common::gpu::gpu_or_skip;
+use crate::common::scenes;
+use diffsil::gpu::{hardware_gpu_available, GpuOptions};
+use diffsil::{Backend, Camera, Error, Image, RenderSettings, Renderer, ScreenView, Vec2, Vec3};
+
+#[test]
+fn auto_takes_a_hardware_gpu_or_the_cpu() {
+    if std::env::var("DIFFSIL_ADAPTER").is_ok_and(|v| !v.trim().is_empty()) {
+        return; // an adapter asked for by name is used whatever it is
+    }
+    let renderer = Renderer::with_backend(RenderSettings::default(), Backend::Auto).unwrap();
+    println!("Backend::Auto runs on: {}", renderer.backend_name());
+    if hardware_gpu_available() {
+        assert!(renderer.is_gpu(), "{}", renderer.backend_name());
+    } else {
+        assert!(!renderer.is_gpu(), "a software adapter must not be chosen automatically: {}", renderer.backend_name());
+        assert!(renderer.backend_name().starts_with("cpu"));
+    }
+    assert_eq!(Renderer::new(RenderSettings::default()).unwrap().backend_name(), "cpu");
+    assert!(Renderer::with_backend(RenderSettings::default(), Backend::Cpu).unwrap().adapter().is_none());
+}
+
+#[test]
+fn gpu_backend_reports_its_adapter() {
+    if gpu_or_skip("gpu_backend_reports_its_adapter").is_none() {
+        return;
+    }
+    let renderer = Renderer::with_backend(RenderSettings::default(), Backend::Gpu(GpuOptions::from_env())).unwrap();
+    assert!(renderer.is_gpu());
+    let adapter = renderer.adapter().unwrap();
+    assert!(renderer.backend_name().starts_with("gpu: ") && renderer.backend_name().contains(&adapter.name));
+}
+
+#[test]
+fn renderer_is_send() {
+    fn assert_send<T: Send>() {}
+    assert_send::<Renderer>();
+    assert_send::<diffsil::Frame>();
+}
+
+#[test]
+fn frames_beyond_the_device_limits_are_gpu_limit_errors() {
+    let Some(ctx) = gpu_or_skip("frames_beyond_the_device_limits_are_gpu_limit_errors") else { return };
+    let settings = RenderSettings { supersample: 16, ..RenderSettings::default() };
+    let mut gpu = Renderer::with_gpu_context(settings, ctx).unwrap();
+    let s = scenes::triangle();
+    // 16384² at F = 16: 8 mask words per pixel, 8.6 GB of masks.
+    let view = ScreenView { vertices: s.vertices.clone(), width: 16384, height: 16384 };
+    match gpu.render_screen(&s.topology(), &[view]) {
+        Err(Error::GpuLimit { limit, needed, max }) => println!("16384² at F=16: {limit}: needs {needed}, max {max}"),
+        Err(e) => panic!("expected Error::GpuLimit, got {e}"),
+        Ok(_) => panic!("an 8.6 GB mask buffer cannot fit"),
+    }
+    // More views than one frame holds.
+    let views: Vec<ScreenView> =
+        (0..257).map(|_| ScreenView { vertices: s.vertices.clone(), width: 4, height: 4 }).collect();
+    assert!(matches!(gpu.render_screen(&s.topology(), &views), Err(Error::GpuLimit { .. })));
+    // The renderer still works afterwards.
+    let frame = gpu.render_screen(&s.topology(), &[s.view()]).unwrap();
+    assert!(frame.images()[0].data().iter().any(|&v| v > 0.0));
+}
+
+#[test]
+fn stale_frames_are_rebuilt_before_their_backward() {
+    let Some(ctx) = gpu_or_skip("stale_frames_are_rebuilt_before_their_backward") else { return };
+    let mut gpu = Renderer::with_gpu_context(RenderSettings::default(), ctx).unwrap();
+    let mut cpu = Renderer::new(RenderSettings::default()).unwrap();
+    let a = scenes::torus_fold_3d();
+    let b = scenes::blob();
+    let (fa, fa_cpu) = (gpu.render(&a.mesh, &a.cameras).unwrap(), cpu.render(&a.mesh, &a.cameras).unwrap());
+    // Other frames in between: another topology (2D), another size of the same mesh.
+    let fb = gpu.render_screen(&b.topology(), &[b.view()]).unwrap();
+    let other = [Camera::perspective(Vec3::new(0.0, 0.4, 3.0), Vec3::ZERO, 0.8, 20, 30)];
+    let _ = gpu.render(&a.mesh, &other).unwrap();
+    let d: Vec<Image> = fa.images().iter().map(|i| Image::filled(i.width(), i.height(), 0.7)).collect();
+    let (ga, ga_cpu) = (gpu.backward(&fa, &d).unwrap(), cpu.backward(&fa_cpu, &d).unwrap());
+    let norm: f32 = ga_cpu.iter().map(|g| g.length_squared()).sum::<f32>().sqrt();
+    let diff: f32 = ga.iter().zip(&ga_cpu).map(|(x, y)| (*x - *y).length_squared()).sum::<f32>().sqrt();
+    assert!(norm > 0.0 && diff <= 1e-5 * norm, "{diff} vs {norm}");
+    let db = vec![Image::filled(b.width, b.height, 1.0)];
+    let gb = gpu.backward_screen(&fb, &db).unwrap();
+    assert!(gb[0].iter().any(|g| *g != Vec2::ZERO));
+    // A renderer differentiates a frame of another GPU renderer by rendering it again.
+    let mut second = Renderer::with_gpu_context(RenderSettings::default(), gpu_or_skip("second").unwrap()).unwrap();
+    let again = second.backward(&fa, &d).unwrap();
+    assert_eq!(again, ga);
+}
