@@ -117,15 +117,25 @@ impl GpuBackend {
         let grads: &[Vec2] = bytemuck::cast_slice(&bytes[..grad_bytes as usize]);
         let counters: &[u32] = bytemuck::cast_slice(&bytes[grad_bytes as usize..]);
         self.check_iterations(counters[STATUS_MAX_ITERATIONS])?;
-        let per_view = grads.chunks(vertices.max(1) as usize).map(|c| c.to_vec());
-        let mut out: Vec<Vec<Vec2>> = per_view.take(n).collect();
-        out.resize(n, Vec::new());
-        let stats = (0..n)
-            .map(|v| BackwardStats {
-                segments: counters[status_index(v, STATUS_SEGMENTS)] as u64,
-                visible_segments: counters[status_index(v, STATUS_VISIBLE)] as u64,
-            })
-            .collect();
-        Ok((out, stats))
+        Ok(split_backward(grads, counters, n, vertices as usize))
     }
+}
+
+/// The read-back of a backward, per view: the vertex gradients of all views (`vertices` each,
+/// view after view) cut into one list per view, and each view's segment counters.
+pub(super) fn split_backward(
+    grads: &[Vec2],
+    counters: &[u32],
+    n: usize,
+    vertices: usize,
+) -> (Vec<Vec<Vec2>>, Vec<BackwardStats>) {
+    let mut per_view: Vec<Vec<Vec2>> = grads.chunks(vertices.max(1)).map(|c| c.to_vec()).take(n).collect();
+    per_view.resize(n, Vec::new());
+    let stats = (0..n)
+        .map(|v| BackwardStats {
+            segments: counters[status_index(v, STATUS_SEGMENTS)] as u64,
+            visible_segments: counters[status_index(v, STATUS_VISIBLE)] as u64,
+        })
+        .collect();
+    (per_view, stats)
 }

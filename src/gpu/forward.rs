@@ -5,14 +5,14 @@ use std::sync::Arc;
 use glam::Vec2;
 
 use super::backend::{GpuBackend, GpuFrame};
+use super::backward::split_backward;
 use super::buffers::{check_index, Shape, TopologyBuffers};
 use super::record::{Command, Recording, StagePasses, Work};
 use super::stages::{FrameLayout, Stage};
 use crate::engine::{BackwardStats, StageTiming, ViewInput};
 use crate::mirror::{
     status_index, status_len, RasterParams, MAX_VIEWS, STATUS_CANDIDATES, STATUS_CANDIDATE_TOTAL, STATUS_CULLED,
-    STATUS_MAX_ITERATIONS, STATUS_NEEDED, STATUS_OVERFLOW, STATUS_PARTIALS_SHORT, STATUS_PARTS, STATUS_SEGMENTS,
-    STATUS_VISIBLE,
+    STATUS_MAX_ITERATIONS, STATUS_NEEDED, STATUS_OVERFLOW, STATUS_PARTIALS_SHORT, STATUS_PARTS,
 };
 use crate::scene::mesh::Topology;
 use crate::{Error, Result};
@@ -142,18 +142,10 @@ impl GpuBackend {
             self.last_generation += 1;
             self.generation = self.last_generation;
             let per_view = |k: usize| -> Vec<u32> { (0..n).map(|v| counters[status_index(v, k)]).collect() };
-            let backward = read.grads.filter(|_| counters[STATUS_PARTIALS_SHORT] == 0).map(|grads| {
-                let vertices = topology.vertex_count().max(1);
-                let mut per_view: Vec<Vec<Vec2>> = grads.chunks(vertices).map(|c| c.to_vec()).take(n).collect();
-                per_view.resize(n, Vec::new());
-                let stats = (0..n)
-                    .map(|v| BackwardStats {
-                        segments: counters[status_index(v, STATUS_SEGMENTS)] as u64,
-                        visible_segments: counters[status_index(v, STATUS_VISIBLE)] as u64,
-                    })
-                    .collect();
-                (per_view, stats)
-            });
+            let backward = read
+                .grads
+                .filter(|_| counters[STATUS_PARTIALS_SHORT] == 0)
+                .map(|grads| split_backward(&grads, &counters, n, topology.vertex_count()));
             return Ok(ForwardOutput {
                 images,
                 losses,
