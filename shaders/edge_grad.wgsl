@@ -2,7 +2,7 @@
 // every view, the analytic derivative of the loss with respect to its two endpoints, over the
 // pixels it crosses, visible parts only.
 //
-// Reads:  `frame`, `screen`, `edges`, `bins` (the tile lists' CSR offsets), `occluders` (the
+// Reads:  `frame`, `screen`, `edges`, `bins` (the tile lists' CSR offsets and triangle indices), `occluders` (the
 //         occluder record of every entry of the tile lists and large-triangle lists), `classes`
 //         (edge sides, the candidate list), `d_image` (∂L/∂I of all views, concatenated like the
 //         images), `status` (list lengths).
@@ -11,6 +11,7 @@
 //         float-float numbers — each item's slot written once, no float atomics;
 //         `status[status_index(view, STATUS_SEGMENTS / STATUS_VISIBLE)]` and
 //         `status[STATUS_MAX_ITERATIONS]` (integer counts, atomic).
+//         `edge_faces` (an edge's faces, for its rank among coincident edges).
 // Dispatch: 1D over candidates · parts work items, ITEMS (2) per workgroup of LANES (64)
 //         invocations; `edge_sum` then adds the parts of each edge in order and applies the
 //         outward normal.
@@ -45,7 +46,12 @@
 // f32 parameters would be off by ~1e-7 of the edge length). The discrete decisions use exact
 // values: face orientations come from `classes` (the CPU's f64 signs, reproduced exactly), and
 // cross products vanish exactly for shared and coincident vertices (`ff_cross`), so a face
-// adjacent to the edge never occludes it. Per-pixel weights are f32 (relative error ~1e-7) and
+// adjacent to the edge never occludes it.
+//
+// Coincident edges (the CPU's `occluded_interval`): a triangle with an edge on the candidate's
+// line, lying on the candidate's inside, covers none of its outside, but when it ranks before the
+// candidate (its index below that of the candidate's lowest face with a non-zero orientation, `Edge.rank`) its edge carries that
+// stretch and the candidate leaves it out, so coincident edges move the area once. Per-pixel weights are f32 (relative error ~1e-7) and
 // are summed in float-float.
 
 //!include shared/frame.wgsl
@@ -64,6 +70,8 @@
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 // The indirect dispatch of `main` in a fused step (written by `args`).
 @group(0) @binding(9) var<storage, read_write> dispatch_args: array<u32, 3>;
+// Edge → faces CSR (offsets [0 ..= edge_count], then the face lists, each in increasing order).
+@group(0) @binding(10) var<storage, read> edge_faces: array<u32>;
 
 // Reads:  `frame` (partial_capacity, max_workgroups), `status` (the candidate and part counts).
 // Writes: `dispatch_args`: the workgroup grid of `main` for candidates × parts work items (ITEMS
@@ -168,15 +176,20 @@ struct Edge {
     // inside · (d.y, −d.x) (its sign is all the occlusion test needs).
     outward: vec2<f32>,
     view: u32,
+    // Rank among coincident edges: the edge's lowest face index with a non-zero orientation.
+    rank: u32,
 }
 
 // One edge qa → qb of an occluder with orientation o: narrows [lo, hi]; false when the interval
-// becomes empty (the point outside the edge is on the wrong side of qa → qb throughout).
+// becomes empty (the point outside the edge is on the wrong side of qa → qb throughout). On the
+// edge's line, qa → qb removes the stretch it spans when the occluder lies on the edge's outside,
+// or on its inside when the occluder ranks first among coincident edges (`yields`).
 fn clip_by_occluder_edge(
     edge: Edge,
     qa: vec2<f32>,
     qb: vec2<f32>,
     o: f32,
+    yields: bool,
     lo: ptr<function, vec2<f32>>,
     hi: ptr<function, vec2<f32>>,
 ) -> bool {
@@ -186,7 +199,8 @@ fn clip_by_occluder_edge(
     let beta = ff_sub(o * ff_cross(ux, uy, ff_diff(edge.vb.x, qa.x), ff_diff(edge.vb.y, qa.y)), alpha);
     if ff_is_zero(beta) {
         let inward = o * vec2<f32>(-(qb.y - qa.y), qb.x - qa.x);
-        if alpha.x < 0.0 || (alpha.x == 0.0 && dot(inward, edge.outward) <= 0.0) {
+        let facing = dot(inward, edge.outward);
+        if alpha.x < 0.0 || (alpha.x == 0.0 && !(facing > 0.0 || (facing < 0.0 && yields))) {
             return false;
         }
     } else if beta.x > 0.0 {
@@ -197,8 +211,9 @@ fn clip_by_occluder_edge(
     return ff_lt(*lo, *hi);
 }
 
-// The parameter interval of [c.lo, c.hi] on va + s·d whose outside is inside triangle t (twin of
-// `occluded_interval`); empty when none. `bb` is the segment's bounding box (lo, hi), already
+// The parameter interval of [c.lo, c.hi] on va + s·d whose outside is inside the triangle of bins
+// entry `entry`, or that it takes over as a coincident edge (twin of `occluded_interval`); empty
+// when none. `bb` is the segment's bounding box (lo, hi), already
 // grown by a margin: the box test is only a filter, a triangle it lets through gets its exact
 // (possibly empty) interval.
 fn occluded_interval(edge: Edge, entry: u32, c: vec4<f32>, bb: vec4<f32>) -> vec4<f32> {
@@ -220,9 +235,11 @@ fn occluded_interval(edge: Edge, entry: u32, c: vec4<f32>, bb: vec4<f32>) -> vec
     }
     var lo = c.xy;
     var hi = c.zw;
+    let yields = bins[entry] < edge.rank;
     // The three edges, unrolled (loops count against llvmpipe's limit).
-    if !clip_by_occluder_edge(edge, q0, q1, o, &lo, &hi) || !clip_by_occluder_edge(edge, q1, q2, o, &lo, &hi)
-        || !clip_by_occluder_edge(edge, q2, q0, o, &lo, &hi) {
+    if !clip_by_occluder_edge(edge, q0, q1, o, yields, &lo, &hi)
+        || !clip_by_occluder_edge(edge, q1, q2, o, yields, &lo, &hi)
+        || !clip_by_occluder_edge(edge, q2, q0, o, yields, &lo, &hi) {
         return none;
     }
     return vec4<f32>(lo, hi);
@@ -358,6 +375,20 @@ struct Item {
     crosses: bool,
 }
 
+// Rank of edge e of `view` among coincident edges (the CPU's `coincident_rank`): the lowest index
+// of its faces with a non-zero orientation (`edge_faces` lists them in increasing order).
+fn coincident_rank(view: u32, e: u32) -> u32 {
+    let n = frame.params.edge_count;
+    let orientations = frame.params.orient_offset + view * frame.params.triangle_count;
+    for (var k = edge_faces[e]; k < edge_faces[e + 1u] && tick(); k++) {
+        let face = edge_faces[n + 1u + k];
+        if classes[orientations + face] != 0 {
+            return face;
+        }
+    }
+    return 0xffffffffu;
+}
+
 fn item_setup(item: u32, parts: u32) -> Item {
     var it: Item;
     it.crosses = false;
@@ -375,7 +406,7 @@ fn item_setup(item: u32, parts: u32) -> Item {
     if inside == 0 || (ff_is_zero(it.dx) && ff_is_zero(it.dy)) {
         return it;
     }
-    it.edge = Edge(va, vb, f32(inside) * vec2<f32>(it.dy.x, -it.dx.x), view);
+    it.edge = Edge(va, vb, f32(inside) * vec2<f32>(it.dy.x, -it.dx.x), view, coincident_rank(view, e));
     let r = frame.views[view].raster;
     // (Clipped in a local: naga 30's SPIR-V writer panics on a pointer to a struct member passed
     // to a function.)
@@ -399,7 +430,7 @@ fn item_setup(item: u32, parts: u32) -> Item {
 }
 
 // Entry point (ITEMS candidate × part work items per workgroup): reads `screen`, `occluders`, `edges`,
-// `bins`, `classes`, `d_image`, `status`; writes one entry of `partials` per work item and the
+// `bins`, `classes`, `d_image`, `status`, `edge_faces`; writes one entry of `partials` per work item and the
 // segment counters of `status` (see the header).
 @compute @workgroup_size(64)
 fn main(

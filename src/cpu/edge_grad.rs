@@ -12,6 +12,7 @@ use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
 use super::bin::{self, Bins};
+use super::edges;
 use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::reference::closed_form::{clip_parameter, segment_weights};
@@ -42,10 +43,26 @@ fn at_least(x: f64) -> f32 {
     }
 }
 
-/// Parameter intervals of `[sa, sb]` on `va + s·d` whose outside (`+ε·outward`) is inside triangle
-/// `q`, appended to `out`. Exact for shared vertices and coincident edges (the products vanish
-/// exactly), so a face adjacent to the edge never occludes it.
-fn occluded_interval(q: [DVec2; 3], va: DVec2, vb: DVec2, outward: DVec2, sa: f64, sb: f64) -> Option<(f64, f64)> {
+/// Parameter interval of `[sa, sb]` on `va + s·d` whose outside (`+ε·outward`) is inside triangle
+/// `q`, or that `q` takes over as a coincident edge (`yields`, see below). Exact for shared vertices
+/// and coincident edges (the products vanish exactly), so a face adjacent to the edge never
+/// occludes it.
+///
+/// An edge of `q` on the segment's line with `q` on the segment's *inside* covers none of its
+/// outside; but when it is another mesh edge lying over the same stretch of boundary (a duplicate
+/// surface, the front and back outlines of a box seen face-on), the area there moves once, not
+/// once per edge. `yields` says that `q` ranks before the segment's edge ([`coincident_rank`]):
+/// then the stretch of `q`'s edge counts as removed from this segment, and the edge of `q` (or a
+/// lower-ranked one) carries it. Ranks are a strict order, so exactly one of coincident edges keeps
+/// each stretch.
+fn occluded_interval(
+    q: [DVec2; 3],
+    va: DVec2,
+    vb: DVec2,
+    outward: DVec2,
+    (sa, sb): (f64, f64),
+    yields: bool,
+) -> Option<(f64, f64)> {
     let cross = |u: DVec2, v: DVec2| u.x * v.y - u.y * v.x;
     let area2 = cross(q[1] - q[0], q[2] - q[0]);
     if area2 == 0.0 {
@@ -60,7 +77,7 @@ fn occluded_interval(q: [DVec2; 3], va: DVec2, vb: DVec2, outward: DVec2, sa: f6
         let beta = h(vb) - alpha;
         if beta == 0.0 {
             let inward = o * DVec2::new(-(qb.y - qa.y), qb.x - qa.x);
-            if alpha < 0.0 || (alpha == 0.0 && inward.dot(outward) <= 0.0) {
+            if alpha < 0.0 || (alpha == 0.0 && !covers_line(inward.dot(outward), yields)) {
                 return None;
             }
         } else if beta > 0.0 {
@@ -73,6 +90,27 @@ fn occluded_interval(q: [DVec2; 3], va: DVec2, vb: DVec2, outward: DVec2, sa: f6
         }
     }
     Some((lo, hi))
+}
+
+/// Whether an occluder edge lying on the segment's line, whose inward normal has dot product `dot`
+/// with the segment's outward normal, removes the stretch it spans: when its triangle lies on the
+/// segment's outside (it covers it), or on the same side when the triangle ranks first among
+/// coincident edges (`yields`, see [`occluded_interval`]).
+#[inline]
+fn covers_line(dot: f64, yields: bool) -> bool {
+    dot > 0.0 || (dot < 0.0 && yields)
+}
+
+/// The rank of candidate edge `e` among coincident edges: the lowest index of its faces with a
+/// non-zero orientation (the faces that cover its inside; the topology lists an edge's faces in
+/// increasing order, and a candidate has at least one). A stretch of `e` that lies on an edge of a
+/// triangle `t < rank` on the same side is left to that triangle's edge; `e`'s own faces never
+/// rank before it. Of two coincident edges `e1`, `e2` exactly one ranks first, and its lowest
+/// covering face takes the stretch from the other.
+fn coincident_rank(screen: &[ScreenVertex], topology: &Topology, e: u32) -> u32 {
+    let triangles = topology.triangles();
+    let faces = topology.edge_faces(e as usize);
+    faces.iter().copied().find(|&f| edges::face_orientation(screen, triangles[f as usize]) != 0).unwrap_or(u32::MAX)
 }
 
 /// One piece of a candidate edge: its part in one pixel with a non-zero incoming gradient.
@@ -163,11 +201,13 @@ struct Scratch {
 }
 
 /// Endpoint weights `[∫(1 − s), ∫s]` over the visible part of `segment`: the parts of its
-/// parameter interval whose outside is covered by no triangle of its tile's list.
+/// parameter interval whose outside is covered by no triangle of its tile's list, and that no
+/// coincident edge ranking before the edge (`rank`, [`coincident_rank`]) carries.
 #[allow(clippy::too_many_arguments)]
 fn visible_weights(
     parts: &[Bins],
     (va, vb, outward): (DVec2, DVec2, DVec2),
+    rank: u32,
     segment: &Segment,
     scratch: &mut Scratch,
 ) -> (f64, f64) {
@@ -188,6 +228,7 @@ fn visible_weights(
         if list.is_empty() {
             continue;
         }
+        let list_start = list.start;
         let (boxes, vertices) = (&part.boxes[list.clone()], &part.vertices[list]);
         // The entries whose box meets the segment's, gathered without a branch per entry (about
         // one in five passes, unpredictably).
@@ -204,10 +245,13 @@ fn visible_weights(
             // A triangle on the inside of the edge's line (closed half-plane) covers no point just
             // outside it: the usual case (the edge's own faces and their neighbours). The signs
             // are exact (f32 differences, their products and one sum of two in f64).
-            if q.iter().all(|&p| (p - va).dot(outward) <= 0.0) {
+            // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
+            let side = q.map(|p| (p - va).dot(outward));
+            let yields = part.triangles[list_start + k as usize] < rank;
+            if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
                 continue;
             }
-            if let Some(iv) = occluded_interval(q, va, vb, outward, c.0, c.1) {
+            if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
                 let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
                 intervals.insert(at, iv);
                 if covers(intervals, c) {
@@ -232,6 +276,7 @@ fn visible_weights(
 fn accumulate(
     parts: &[Bins],
     geometry: (DVec2, DVec2, DVec2),
+    rank: u32,
     segments: &[Segment],
     scratch: &mut Scratch,
 ) -> (EdgeGrad, BackwardStats) {
@@ -239,7 +284,7 @@ fn accumulate(
     let (mut wa, mut wb) = (0.0f64, 0.0f64);
     for segment in segments {
         stats.segments += 1;
-        let (visible_a, visible_b) = visible_weights(parts, geometry, segment, scratch);
+        let (visible_a, visible_b) = visible_weights(parts, geometry, rank, segment, scratch);
         if visible_a != 0.0 || visible_b != 0.0 {
             stats.visible_segments += 1;
         }
@@ -313,7 +358,8 @@ pub fn edge_grad(
                 let pieces = &segments[start..end as usize];
                 start = end as usize;
                 if let Some(g) = geometry(candidate) {
-                    *result = accumulate(&parts, g, pieces, &mut scratch);
+                    *result =
+                        accumulate(&parts, g, coincident_rank(screen, topology, candidate.0), pieces, &mut scratch);
                 }
             }
         },
@@ -326,7 +372,7 @@ pub fn edge_grad(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::{bin, edges};
+    use crate::cpu::bin;
 
     /// The stage as first written: full bins, every listed triangle tested in f64, no early exit.
     #[allow(clippy::too_many_arguments)]
@@ -338,6 +384,7 @@ mod tests {
         d_image: &[f32],
         edge: [u32; 2],
         inside: i32,
+        rank: u32,
     ) -> (EdgeGrad, BackwardStats) {
         let mut stats = BackwardStats::default();
         let Some((va, vb, outward)) = edge_geometry(screen, edge, inside) else {
@@ -387,7 +434,7 @@ mod tests {
                     continue;
                 }
                 let q = triangles[t as usize].map(|v| position(screen, v));
-                found.extend(occluded_interval(q, va, vb, outward, c.0, c.1));
+                found.extend(occluded_interval(q, va, vb, outward, c, t < rank));
             }
             found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
             let (mut visible_a, mut visible_b, mut cursor) = (0.0, 0.0, c.0);
@@ -459,7 +506,9 @@ mod tests {
             let mut expected = BackwardStats::default();
             for (&(e, side), slot) in candidates.iter().zip(&slots) {
                 let edge = topology.edges()[e as usize];
-                let (grad, s) = reference_gradient(&params, &screen, topology.triangles(), &full, &d_image, edge, side);
+                let rank = coincident_rank(&screen, topology, e);
+                let (grad, s) =
+                    reference_gradient(&params, &screen, topology.triangles(), &full, &d_image, edge, side, rank);
                 assert_eq!(grad, *slot, "case {case} edge {e}");
                 expected = expected + s;
             }

@@ -23,21 +23,26 @@ use crate::scene::mesh::Topology;
 /// in f64, so the sign is exact. Reads the screen vertices; writes `orientation` (one per face).
 pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orientation: &mut [i8]) {
     orientation.par_iter_mut().with_min_len(4096).zip(triangles.par_iter()).for_each(|(o, tri)| {
-        let v = tri.map(|i| screen[i as usize]);
-        if v.iter().any(|s| s.valid == 0) {
-            *o = 0;
-            return;
-        }
-        let p = v.map(|s| [s.position[0] as f64, s.position[1] as f64]);
-        let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
-        *o = if cross > 0.0 {
-            1
-        } else if cross < 0.0 {
-            -1
-        } else {
-            0
-        };
+        *o = face_orientation(screen, *tri);
     });
+}
+
+/// The orientation of one face (see [`face_orientations`]).
+#[inline]
+pub fn face_orientation(screen: &[ScreenVertex], tri: [u32; 3]) -> i8 {
+    let v = tri.map(|i| screen[i as usize]);
+    if v.iter().any(|s| s.valid == 0) {
+        return 0;
+    }
+    let p = v.map(|s| [s.position[0] as f64, s.position[1] as f64]);
+    let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+    if cross > 0.0 {
+        1
+    } else if cross < 0.0 {
+        -1
+    } else {
+        0
+    }
 }
 
 /// Side of the inside of a candidate edge `[a, b]`: `+1` when the faces lie to the left of

@@ -21,7 +21,7 @@
 //! | `edges` | `edges`, `src/cpu/edges.rs` | `edges.wgsl` | `screen`, `triangles`, `edges`, `edge_faces`, `classes`, `status` | `classes`, `status` | view × edge |
 //! | `loss` (step) | `squared_error`, `src/loss.rs` | `loss.wgsl` | `image`, `target_image` | `d_image`, `tile_losses` | tile (a workgroup) |
 //! | `edge_grad_args` (fused step) | — | `edge_grad.wgsl` (`args`) | `status` | `status`, `dispatch_args` | frame (one invocation) |
-//! | `edge_grad` | `edge_grad`, `src/cpu/edge_grad.rs` | `edge_grad.wgsl` (`main`) | `screen`, `occluders`, `edges`, `bins`, `classes`, `d_image`, `status` | `partials`, `status` | candidate edge × part; 64 lanes share 2 |
+//! | `edge_grad` | `edge_grad`, `src/cpu/edge_grad.rs` | `edge_grad.wgsl` (`main`) | `screen`, `occluders`, `edges`, `bins`, `classes`, `d_image`, `status`, `edge_faces` | `partials`, `status` | candidate edge × part; 64 lanes share 2 |
 //! | `edge_sum` | `edge_grad` (its sum over an edge), `src/cpu/edge_grad.rs` | `edge_sum.wgsl` | `screen`, `edges`, `classes`, `partials`, `status` | `slots` | view × edge |
 //! | `gather` | `gather`, `src/cpu/gather.rs` | `gather.wgsl` | `edges`, `vertex_edges`, `slots` | `grads` | view × vertex |
 //!

@@ -8,6 +8,7 @@ mod common;
 
 mod bad_input;
 mod closed_form;
+mod coincident;
 mod forward;
 mod golden;
 mod gradients;

@@ -168,10 +168,13 @@ fn direction_for(rng: &mut Rng, grad: &[f64]) -> Vec<f64> {
     rng.direction(n)
 }
 
+mod coincident;
 mod screen;
 mod world;
 
 // Not every test binary uses both.
+#[allow(unused_imports)]
+pub use coincident::*;
 #[allow(unused_imports)]
 pub use screen::*;
 #[allow(unused_imports)]
