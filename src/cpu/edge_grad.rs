@@ -457,8 +457,8 @@ mod tests {
     }
 
     /// The stage (lazy lists, f32 box test, gathered hits, early exit on hidden segments) gives the
-    /// reference's bits, on random folded meshes with overlaps, ties on pixel borders and a
-    /// sparse `∂L/∂I`.
+    /// reference's bits, on random folded meshes with overlaps, ties on pixel borders, coincident
+    /// edges (a mesh with a copy of itself) and a sparse `∂L/∂I`.
     #[test]
     fn same_bits_as_the_reference() {
         let mut seed = 0x6a09_e667_f3bc_c908u64;
@@ -468,15 +468,22 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        let sphere = crate::scene::shapes::icosphere(2);
-        let topology = sphere.topology();
+        let single = crate::scene::shapes::icosphere(2);
+        // The sphere and an exact copy of it: every silhouette edge coincides with its copy's.
+        let n = single.positions().len() as u32;
+        let doubled = crate::scene::mesh::Mesh::new(
+            single.positions().iter().chain(single.positions()).copied().collect(),
+            single.triangles().iter().copied().chain(single.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
+        )
+        .unwrap();
         let mut hidden = 0;
         for case in 0..40 {
             let (w, h) = (20 + case % 7, 16 + case % 5);
             let mut params = RasterParams::new(w, h, 4, 1.0, 0.0).unwrap();
             params.set_tile_size([1, 2, 4][case as usize % 3]);
             let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0];
-            let screen: Vec<ScreenVertex> = sphere
+            let topology = if case % 3 == 1 { doubled.topology() } else { single.topology() };
+            let mut screen: Vec<ScreenVertex> = single
                 .positions()
                 .iter()
                 .map(|p| {
@@ -491,6 +498,9 @@ mod tests {
                     ScreenVertex { position: q.map(|c| c as f32), valid: 1, pad: 0 }
                 })
                 .collect();
+            if case % 3 == 1 {
+                screen.extend_from_within(..);
+            }
             let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
             let mut orientation = vec![0i8; topology.triangles().len()];
             edges::face_orientations(&screen, topology.triangles(), &mut orientation);
