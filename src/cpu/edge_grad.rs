@@ -52,9 +52,9 @@ fn at_least(x: f64) -> f32 {
 /// outside; but when it is another mesh edge lying over the same stretch of boundary (a duplicate
 /// surface, the front and back outlines of a box seen face-on), the area there moves once, not
 /// once per edge. `yields` says that `q` ranks before the segment's edge ([`coincident_rank`]):
-/// then the stretch of `q`'s edge counts as removed from this segment, and the edge of `q` (or a
-/// lower-ranked one) carries it. Ranks are a strict order, so exactly one of coincident edges keeps
-/// each stretch.
+/// then the stretch of `q`'s edge counts as removed from this segment. Ranks are a strict order,
+/// so of the coincident edges over a stretch, the one that ranks first keeps it and every other
+/// one leaves it out.
 fn occluded_interval(
     q: [DVec2; 3],
     va: DVec2,
