@@ -11,6 +11,7 @@ mod bad_input;
 mod exact;
 mod golden;
 mod layout;
+mod params;
 mod shader_backends;
 mod smoke;
 mod step;
