@@ -175,6 +175,8 @@ fn camera_gradient_matches_finite_differences_of_the_oracle() {
             });
             errors.push(("intrinsic", k, analytic.intrinsics()[k] as f64, fd_k));
         }
+        let worst = errors.iter().map(|e| relative(e.2, e.3)).fold(0.0, f64::max);
+        println!("{}: camera parameters, worst relative error {worst:.2e} over {}", scene.name, errors.len());
         for (what, k, a, fd) in errors {
             assert!(fd.abs() > 1e-3, "{}: {what} {k}: the derivative is trivially zero ({fd})", scene.name);
             assert!(relative(a, fd) < 1e-3, "{}: {what} {k}: analytic {a} vs fd {fd}", scene.name);
@@ -223,6 +225,8 @@ fn rigid_transform_gradient_matches_finite_differences_of_the_oracle() {
             ));
         }
         checks.push(("scale", 0, analytic.scale, central(&reference, 1e-5, |e| moved(DVec3::ZERO, DVec3::ZERO, e))));
+        let worst = checks.iter().map(|e| relative(e.2 as f64, e.3)).fold(0.0, f64::max);
+        println!("{}: rigid transform, worst relative error {worst:.2e} over {}", scene.name, checks.len());
         for (what, k, a, fd) in checks {
             assert!(fd.abs() > 1e-3, "{}: {what} {k}: the derivative is trivially zero ({fd})", scene.name);
             assert!(relative(a as f64, fd) < 1e-3, "{}: {what} {k}: analytic {a} vs fd {fd}", scene.name);
