@@ -135,13 +135,19 @@ fn central(reference: &ViewReference, eps: f64, points: impl Fn(f64) -> Vec<DVec
 
 #[test]
 fn camera_gradient_matches_finite_differences_of_the_oracle() {
-    for scene in [blob_3d(), torus_fold_3d()] {
-        let size = scene.cameras[0].width;
-        let scene = Scene3d { cameras: vec![calibrated_camera(Vec3::new(0.4, 0.5, 2.9), size)], ..scene };
-        let camera = scene.cameras[0];
+    let eye = Vec3::new(0.4, 0.5, 2.9);
+    let orthographic = |size| Camera::orthographic(eye, Vec3::new(0.05, -0.03, 0.0), 2.4, size, size);
+    let cases = [
+        (blob_3d(), calibrated_camera(eye, 32)),
+        (torus_fold_3d(), calibrated_camera(eye, 40)),
+        (blob_3d(), orthographic(32)),
+    ];
+    for (scene, camera) in cases {
+        let scene = Scene3d { cameras: vec![camera], ..scene };
+        let perspective = !matches!(camera.projection, Projection::Orthographic { .. });
         let (reference, screen, _) = view_and_gradients(&scene, 11);
         let analytic = camera_gradient(&camera, scene.mesh.positions(), &screen).unwrap();
-        let pose = camera.extrinsics.unwrap();
+        let pose = camera.opencv_extrinsics();
         let (r, t) = (pose.rotation.as_dmat3(), pose.translation.as_dvec3());
         let r_inv = r.inverse();
         let [fx, fy, cx, cy] = camera.intrinsics().map(f64::from);
@@ -152,8 +158,9 @@ fn camera_gradient_matches_finite_differences_of_the_oracle() {
             base.iter()
                 .map(|&p| {
                     let c = rot * p + t + dt;
-                    let (u, v) = ((fx + dk[0]) * c.x / c.z + cx + dk[2], (fy + dk[1]) * c.y / c.z + cy + dk[3]);
-                    let seen = DVec3::new((u - cx) * c.z / fx, (v - cy) * c.z / fy, c.z);
+                    let z = if perspective { c.z } else { 1.0 };
+                    let (u, v) = ((fx + dk[0]) * c.x / z + cx + dk[2], (fy + dk[1]) * c.y / z + cy + dk[3]);
+                    let seen = DVec3::new((u - cx) * z / fx, (v - cy) * z / fy, c.z);
                     r_inv * (seen - t)
                 })
                 .collect()
@@ -175,8 +182,19 @@ fn camera_gradient_matches_finite_differences_of_the_oracle() {
             });
             errors.push(("intrinsic", k, analytic.intrinsics()[k] as f64, fd_k));
         }
+        if !perspective {
+            // Depth does not move an orthographic image: ∂L/∂t.z is exactly zero.
+            let i = errors.iter().position(|e| e.0 == "translation" && e.1 == 2).unwrap();
+            let (_, _, a, fd) = errors.remove(i);
+            assert!(a == 0.0 && fd.abs() < 1e-6, "orthographic ∂L/∂t.z: analytic {a}, fd {fd}");
+        }
         let worst = errors.iter().map(|e| relative(e.2, e.3)).fold(0.0, f64::max);
-        println!("{}: camera parameters, worst relative error {worst:.2e} over {}", scene.name, errors.len());
+        println!(
+            "{} ({}): camera parameters, worst relative error {worst:.2e} over {}",
+            scene.name,
+            if perspective { "pinhole" } else { "orthographic" },
+            errors.len()
+        );
         for (what, k, a, fd) in errors {
             assert!(fd.abs() > 1e-3, "{}: {what} {k}: the derivative is trivially zero ({fd})", scene.name);
             assert!(relative(a, fd) < 1e-3, "{}: {what} {k}: analytic {a} vs fd {fd}", scene.name);
