@@ -86,7 +86,7 @@ fn main(
         }
         xy = vec2<f32>(div_rn(c.x, depth), div_rn(c.y, depth));
     }
-    let s = vec2<f32>(view.centre.x + no_fuse(view.scale * xy.x), view.centre.y - no_fuse(view.scale * xy.y));
+    let s = vec2<f32>(view.centre.x + no_fuse(view.scale.x * xy.x), view.centre.y - no_fuse(view.scale.y * xy.y));
     let valid = in_range && abs(s.x) < COORD_LIMIT && abs(s.y) < COORD_LIMIT;
     let vertex = ScreenVertex(select(vec2<f32>(0.0, 0.0), s, valid), select(0u, 1u, valid), 0u);
     screen[i] = vertex;

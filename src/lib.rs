@@ -98,7 +98,7 @@
 //!
 //! | where | what |
 //! |---|---|
-//! | crate root | [`Renderer`], [`RenderSettings`], [`Backend`], [`Frame`], [`ScreenView`], [`Targets`], [`Step`], [`RenderStats`], [`BackwardStats`], [`StageTiming`]; [`Camera`], [`Orbit`], [`Projection`], [`ViewParams`], [`Mesh`], [`Topology`], [`Image`]; [`Error`], [`Result`], [`COORD_LIMIT`]; [`Vec2`], [`Vec3`] |
+//! | crate root | [`Renderer`], [`RenderSettings`], [`Backend`], [`Frame`], [`ScreenView`], [`Targets`], [`Step`], [`RenderStats`], [`BackwardStats`], [`StageTiming`]; [`Camera`], [`Extrinsics`], [`Orbit`], [`Projection`]; [`RigidTransform`], [`RigidGradient`], [`CameraGradient`], [`camera_gradient`]; [`ViewParams`], [`Mesh`], [`Topology`], [`Image`]; [`Error`], [`Result`], [`COORD_LIMIT`]; [`Vec2`], [`Vec3`] |
 //! | [`scene`] | [`scene::camera`], [`scene::mesh`], [`scene::image`], [`shapes`] (icosphere, blob) |
 //! | [`loss`], [`optim`] | squared error (paper Eq. 18), soft IoU, blurred squared error, each with `∂L/∂I`; Adam |
 //! | [`io`] | OBJ loading, PNG images and targets, welding; `io::gltf` (feature `pose`): glTF/GLB static and skinned meshes |
@@ -143,8 +143,9 @@ pub mod scene;
 pub use engine::StageTiming;
 pub use error::{Error, Result};
 pub use mirror::{ViewParams, COORD_LIMIT};
+pub use render::params::{camera_gradient, CameraGradient, RigidGradient, RigidTransform};
 pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
-pub use scene::camera::{Camera, Orbit, Projection};
+pub use scene::camera::{Camera, Extrinsics, Orbit, Projection};
 pub use scene::image::Image;
 pub use scene::mesh::{Mesh, Topology};
 pub use scene::shapes;
@@ -155,4 +156,4 @@ pub use scene::shapes;
 pub struct ReadmeDoctests;
 
 /// Re-exported math types used in the API.
-pub use glam::{Vec2, Vec3};
+pub use glam::{Mat3, Vec2, Vec3};

@@ -176,8 +176,10 @@ pub struct EdgeGrad {
 
 /// Per-view projection constants (`ViewParams` in `shaders/shared/layout.wgsl`).
 ///
-/// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]`; depth `d = −c.z`. Perspective:
-/// `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic: `x = cx + s·c.x`, `y = cy − s·c.y`.
+/// Camera space `c = R·p + t` with rows `row0..row2 = [R | t]` (x right, y up, z backward);
+/// depth `d = −c.z`. Perspective: `x = cx + sx·c.x/d`, `y = cy − sy·c.y/d`; orthographic:
+/// `x = cx + sx·c.x`, `y = cy − sy·c.y`, with `(cx, cy) = centre` and `(sx, sy) = scale`
+/// (different for non-square pixels).
 /// A point is valid when `near < d < far` and its pixel coordinates are within
 /// ±[`COORD_LIMIT`].
 #[repr(C)]
@@ -189,10 +191,11 @@ pub struct ViewParams {
     pub row1: [f32; 4],
     /// Third row of `[R | t]`.
     pub row2: [f32; 4],
-    /// Image centre in pixels.
+    /// Principal point `(cx, cy)` in pixels (the image centre unless the camera says otherwise).
     pub centre: [f32; 2],
-    /// Pixels per unit of `c.x/d` (perspective) or of `c.x` (orthographic).
-    pub scale: f32,
+    /// Pixels per unit of `(c.x/d, c.y/d)` (perspective: the focal lengths `fx, fy`) or of
+    /// `(c.x, c.y)` (orthographic).
+    pub scale: [f32; 2],
     /// 1 for perspective, 0 for orthographic.
     pub perspective: u32,
     /// Near clipping depth.
@@ -203,6 +206,12 @@ pub struct ViewParams {
     pub width: u32,
     /// Image height, pixels.
     pub height: u32,
+    /// Padding to the 16-byte alignment of the WGSL struct; zero.
+    pub pad0: u32,
+    /// Padding; zero.
+    pub pad1: u32,
+    /// Padding; zero.
+    pub pad2: u32,
 }
 
 /// Largest GPU tile side in pixels: `coverage` has 256 invocations per tile.

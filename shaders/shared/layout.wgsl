@@ -8,7 +8,7 @@
 //   ScreenVertex   16 bytes
 //   RasterParams   48 bytes
 //   EdgeGrad       16 bytes
-//   ViewParams     80 bytes
+//   ViewParams     96 bytes
 //   GpuView        64 bytes
 //   FrameParams    64 bytes
 //   FrameUniform   64 + MAX_VIEWS·64 bytes (uniform)
@@ -48,13 +48,18 @@ struct ViewParams {
     row0: vec4<f32>,
     row1: vec4<f32>,
     row2: vec4<f32>,
+    // Principal point (cx, cy), pixels.
     centre: vec2<f32>,
-    scale: f32,
+    // Pixels per unit of (c.x/d, c.y/d) (perspective) or (c.x, c.y) (orthographic): (sx, sy).
+    scale: vec2<f32>,
     perspective: u32,
     near: f32,
     far: f32,
     width: u32,
     height: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // One view of a multi-view frame: its raster constants and where its data starts in the

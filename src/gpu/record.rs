@@ -277,12 +277,15 @@ mod tests {
                 row1: [0.0, 1.0, 0.0, 0.0],
                 row2: [0.0, 0.0, 1.0, -5.0],
                 centre: [p.width as f32 / 2.0, p.height as f32 / 2.0],
-                scale: 20.0,
+                scale: [20.0; 2],
                 perspective: 1,
                 near: 0.1,
                 far: 100.0,
                 width: p.width,
                 height: p.height,
+                pad0: 0,
+                pad1: 0,
+                pad2: 0,
             })
             .collect();
         let input = ViewInput::World { positions: &positions, cameras: &cameras };

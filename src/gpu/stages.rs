@@ -262,7 +262,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<FrameUniform>(), 64 + 64 * MAX_VIEWS);
         assert_eq!(std::mem::size_of::<crate::mirror::ScreenVertex>(), 16);
         assert_eq!(std::mem::size_of::<crate::mirror::EdgeGrad>(), 16);
-        assert_eq!(std::mem::size_of::<crate::ViewParams>(), 80);
+        assert_eq!(std::mem::size_of::<crate::ViewParams>(), 96);
     }
 
     #[test]

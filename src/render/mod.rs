@@ -3,6 +3,7 @@
 //! ([`crate::engine`]); it never matches on which engine runs.
 
 mod frame;
+pub mod params;
 mod settings;
 mod step;
 mod views;

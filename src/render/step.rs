@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::Renderer;
 use crate::engine::{RenderStats, ViewInput};
@@ -47,6 +47,9 @@ pub struct Step {
     pub view_losses: Vec<f64>,
     /// `∂L/∂(3D vertex)`, one per mesh vertex, summed over views.
     pub gradient: Vec<Vec3>,
+    /// `∂L/∂(screen vertex)` per view, one per mesh vertex (what [`Step::gradient`] is chained
+    /// from; [`camera_gradient`](crate::camera_gradient) takes one view's).
+    pub screen_gradients: Vec<Vec<Vec2>>,
     /// Per-view statistics of the forward.
     pub stats: Vec<RenderStats>,
 }
@@ -82,6 +85,7 @@ impl Renderer {
             loss: out.view_losses.iter().sum(),
             view_losses: out.view_losses,
             gradient: super::views::chain_to_3d(mesh.positions(), &views, &out.screen_grads),
+            screen_gradients: out.screen_grads,
             stats: out.stats,
         })
     }

@@ -1,8 +1,17 @@
 //! Cameras: 3D world points → 2D pixel coordinates, and the Jacobian of that map.
 //!
 //! Pixel coordinates are continuous: pixel (row i, column j) covers `[j, j+1] × [i, i+1]`, x to the
-//! right, y **down**, so the image spans `[0, width] × [0, height]`. Pixels are square: a
-//! perspective camera's horizontal field of view follows from the vertical one and `width/height`.
+//! right, y **down**, so the image spans `[0, width] × [0, height]` and pixel centres sit at
+//! `(j + 0.5, i + 0.5)`. [`Projection::Perspective`] has square pixels (the horizontal field of
+//! view follows from the vertical one and `width/height`) and the principal point at the image
+//! centre; [`Projection::Pinhole`] takes focal lengths `fx, fy` and a principal point `cx, cy` in
+//! pixels, in these coordinates.
+//!
+//! **Pose.** A camera is posed either by look-at (`eye`, `target`, `up`) or, when
+//! [`Camera::extrinsics`] is set, by an exact world → camera rotation and translation in OpenCV's
+//! camera axes (x right, y down, z forward): [`Camera::from_opencv`] builds such a camera from a
+//! calibration (`K`, `R`, `t`). OpenCV puts pixel centres at integer coordinates, diffsil at
+//! `+0.5`, so `from_opencv` adds 0.5 to `cx` and `cy`.
 
 use glam::{Mat3, Vec2, Vec3};
 
@@ -25,12 +34,82 @@ pub enum Projection {
         /// World units spanned by the image height.
         height: f32,
     },
+    /// Pinhole perspective with focal lengths and principal point in pixels: a camera-space point
+    /// `(X, Y, Z)` in OpenCV axes (z forward, y down) lands at `(cx + fx·X/Z, cy + fy·Y/Z)`.
+    /// `cx, cy` are in diffsil's pixel coordinates (the image centre is `(width/2, height/2)`).
+    Pinhole {
+        /// Horizontal focal length, pixels (> 0).
+        fx: f32,
+        /// Vertical focal length, pixels (> 0; differs from `fx` for non-square pixels).
+        fy: f32,
+        /// Principal point x, pixels.
+        cx: f32,
+        /// Principal point y, pixels (y down).
+        cy: f32,
+    },
 }
 
-/// A camera looking from `eye` at `target`, rendering a `width × height` image.
+/// An exact world → camera pose in OpenCV's camera axes (x right, y down, z forward):
+/// a world point `p` has camera coordinates `c = rotation · p + translation`, and the camera
+/// centre is `−rotationᵀ · translation`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extrinsics {
+    /// World → camera rotation `R` (orthonormal, determinant +1).
+    pub rotation: Mat3,
+    /// World → camera translation `t`.
+    pub translation: Vec3,
+}
+
+/// Largest deviation of `RᵀR` from the identity (per entry) that [`Extrinsics`] accept.
+pub const ROTATION_TOLERANCE: f32 = 1e-4;
+
+/// `diag(1, −1, −1)`: OpenCV camera axes ↔ diffsil camera axes (x right, y up, z backward).
+const FLIP: Mat3 = Mat3::from_cols(Vec3::X, Vec3::NEG_Y, Vec3::NEG_Z);
+
+impl Extrinsics {
+    /// Checks that both parts are finite and the rotation is orthonormal with determinant +1
+    /// (within [`ROTATION_TOLERANCE`]).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.rotation.is_finite() && self.translation.is_finite()) {
+            return Err(Error::InvalidCamera("extrinsics: R and t must be finite".into()));
+        }
+        let deviation = (self.rotation.transpose() * self.rotation - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0f32, |m, v| m.max(v.abs()));
+        if deviation > ROTATION_TOLERANCE {
+            return Err(Error::InvalidCamera(format!(
+                "extrinsics: R is not orthonormal (RᵀR deviates from I by {deviation:e})"
+            )));
+        }
+        if self.rotation.determinant() < 0.0 {
+            return Err(Error::InvalidCamera("extrinsics: R is a reflection (determinant −1), not a rotation".into()));
+        }
+        Ok(())
+    }
+
+    /// The camera centre in world space, `−Rᵀ·t`.
+    pub fn centre(&self) -> Vec3 {
+        -(self.rotation.transpose() * self.translation)
+    }
+
+    /// The pose after a step in the tangent space (the parametrisation of
+    /// [`CameraGradient`](crate::CameraGradient)): `R ← exp([δ]×)·R`,
+    /// `t ← t + dt`, with `δ` an axis–angle vector (radians) in camera axes.
+    pub fn retract(&self, rotation: Vec3, translation: Vec3) -> Extrinsics {
+        Extrinsics {
+            rotation: Mat3::from_quat(glam::Quat::from_scaled_axis(rotation)) * self.rotation,
+            translation: self.translation + translation,
+        }
+    }
+}
+
+/// A camera looking from `eye` at `target` (or posed by exact [`Extrinsics`]), rendering a
+/// `width × height` image.
 ///
-/// Build one with [`Camera::perspective`], [`Camera::orthographic`], or, for a camera on a sphere
-/// around a point given by angles, [`Orbit::camera`].
+/// Build one with [`Camera::perspective`], [`Camera::orthographic`], [`Camera::pinhole`]
+/// (focal lengths and principal point), [`Camera::from_opencv`] (a calibration), or, for a camera
+/// on a sphere around a point given by angles, [`Orbit::camera`].
 ///
 /// Points whose depth along the viewing direction is not strictly between `near` and `far` are
 /// *clipped*: a triangle with such a vertex is dropped from the silhouette (counted in
@@ -54,6 +133,10 @@ pub struct Camera {
     pub width: u32,
     /// Image height, pixels.
     pub height: u32,
+    /// When set, the camera's pose: it overrides `eye`, `target` and `up`, which then describe
+    /// the same camera as look-at for information only ([`Camera::with_extrinsics`] keeps them
+    /// in step). `None` for look-at cameras.
+    pub extrinsics: Option<Extrinsics>,
 }
 
 impl Camera {
@@ -68,6 +151,7 @@ impl Camera {
             far: 1000.0,
             width,
             height,
+            extrinsics: None,
         }
     }
 
@@ -83,7 +167,83 @@ impl Camera {
             far: 1000.0,
             width,
             height,
+            extrinsics: None,
         }
+    }
+
+    /// A pinhole camera with up = +y, near = 0.01, far = 1000, looking from `eye` at `target`,
+    /// with focal lengths `focal = (fx, fy)` and principal point `principal = (cx, cy)` in pixels
+    /// (diffsil's coordinates: the image centre is `(width/2, height/2)`; see
+    /// [`Projection::Pinhole`]).
+    pub fn pinhole(eye: Vec3, target: Vec3, focal: Vec2, principal: Vec2, width: u32, height: u32) -> Camera {
+        Camera {
+            projection: Projection::Pinhole { fx: focal.x, fy: focal.y, cx: principal.x, cy: principal.y },
+            ..Camera::perspective(eye, target, 1.0, width, height)
+        }
+    }
+
+    /// A camera from an OpenCV calibration: intrinsics `k = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]`
+    /// (rows, OpenCV's pixel convention: pixel centres at integer coordinates) and the
+    /// world → camera pose `r` (rows), `t` in OpenCV's camera axes (x right, y down, z forward),
+    /// rendering `width × height` pixels; near = 0.01, far = 1000 (in the units of `t`).
+    ///
+    /// A world point `p` with `c = R·p + t` lands at diffsil pixel coordinates
+    /// `(fx·c.x/c.z + cx + 0.5, fy·c.y/c.z + cy + 0.5)`: the `+0.5` moves OpenCV's pixel
+    /// centres onto diffsil's. Errors ([`Error::InvalidCamera`]): a non-finite entry, a skewed or
+    /// non-pinhole `k` (non-zero skew, last row other than `(0, 0, 1)`), `fx` or `fy` ≤ 0, an `r`
+    /// that is not a rotation (see [`Extrinsics::validate`]), and a bad resolution.
+    pub fn from_opencv(k: [[f32; 3]; 3], r: [[f32; 3]; 3], t: [f32; 3], width: u32, height: u32) -> Result<Camera> {
+        if k.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(Error::InvalidCamera(format!("K must be finite, got {k:?}")));
+        }
+        if k[0][1] != 0.0 || k[1][0] != 0.0 || k[2] != [0.0, 0.0, 1.0] {
+            return Err(Error::InvalidCamera(format!(
+                "K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {k:?}"
+            )));
+        }
+        let extrinsics = Extrinsics { rotation: Mat3::from_cols_array_2d(&r).transpose(), translation: Vec3::from(t) };
+        extrinsics.validate()?;
+        let camera = Camera::pinhole(
+            Vec3::ZERO,
+            Vec3::NEG_Z,
+            Vec2::new(k[0][0], k[1][1]),
+            Vec2::new(k[0][2] + 0.5, k[1][2] + 0.5),
+            width,
+            height,
+        )
+        .with_extrinsics(extrinsics);
+        camera.validate()?;
+        Ok(camera)
+    }
+
+    /// This camera posed by `extrinsics` (OpenCV axes), with `eye`, `target` and `up` set to the
+    /// equivalent look-at (eye at the camera centre, target one unit along the optical axis, up
+    /// = −y of the camera).
+    pub fn with_extrinsics(self, extrinsics: Extrinsics) -> Camera {
+        let rt = extrinsics.rotation.transpose();
+        let eye = extrinsics.centre();
+        Camera { eye, target: eye + rt * Vec3::Z, up: -(rt * Vec3::Y), extrinsics: Some(extrinsics), ..self }
+    }
+
+    /// The world → camera pose in OpenCV axes, for any camera: [`Camera::extrinsics`] when set,
+    /// otherwise the look-at pose's.
+    pub fn opencv_extrinsics(&self) -> Extrinsics {
+        match self.extrinsics {
+            Some(e) => e,
+            None => {
+                let r = self.rotation();
+                Extrinsics { rotation: FLIP * r, translation: FLIP * -(r * self.eye) }
+            }
+        }
+    }
+
+    /// The pinhole intrinsics `(fx, fy, cx, cy)` in diffsil pixel coordinates: those of
+    /// [`Projection::Pinhole`], or the equivalent of [`Projection::Perspective`] (`fx = fy`,
+    /// principal point at the image centre); for [`Projection::Orthographic`] the pixels per world
+    /// unit and the image centre.
+    pub fn intrinsics(&self) -> [f32; 4] {
+        let p = self.params();
+        [p.scale[0], p.scale[1], p.centre[0], p.centre[1]]
     }
 
     /// Checks that the camera can form an image; every render calls this.
@@ -91,17 +251,10 @@ impl Camera {
         if self.width == 0 || self.height == 0 || self.width > MAX_RESOLUTION || self.height > MAX_RESOLUTION {
             return Err(Error::InvalidResolution { width: self.width, height: self.height, max: MAX_RESOLUTION });
         }
-        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
-            return Err(Error::InvalidCamera("eye, target and up must be finite".into()));
-        }
-        let forward = self.target - self.eye;
-        if forward.length_squared() < 1e-20 {
-            return Err(Error::InvalidCamera("eye and target coincide: the viewing direction is undefined".into()));
-        }
-        if forward.normalize().cross(self.up).length_squared() < 1e-12 {
-            return Err(Error::InvalidCamera(
-                "`up` is parallel to the viewing direction: choose another up vector".into(),
-            ));
+        if let Some(extrinsics) = &self.extrinsics {
+            extrinsics.validate()?;
+        } else {
+            self.validate_look_at()?;
         }
         if !(self.near.is_finite() && self.far.is_finite() && self.far > self.near) {
             return Err(Error::InvalidCamera(format!(
@@ -116,10 +269,11 @@ impl Camera {
                         "perspective fov_y must be in (0, π) radians, got {fov_y}"
                     )));
                 }
-                if self.near <= 0.0 {
+            }
+            Projection::Pinhole { fx, fy, cx, cy } => {
+                if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite() && cx.is_finite() && cy.is_finite()) {
                     return Err(Error::InvalidCamera(format!(
-                        "a perspective camera needs near > 0, got {}",
-                        self.near
+                        "pinhole needs finite fx, fy > 0 and finite cx, cy, got fx {fx} fy {fy} cx {cx} cy {cy}"
                     )));
                 }
             }
@@ -129,11 +283,34 @@ impl Camera {
                 }
             }
         }
+        if !matches!(self.projection, Projection::Orthographic { .. }) && self.near <= 0.0 {
+            return Err(Error::InvalidCamera(format!("a perspective camera needs near > 0, got {}", self.near)));
+        }
         Ok(())
     }
 
-    /// World → camera rotation; rows are the camera's right, up and backward axes.
+    fn validate_look_at(&self) -> Result<()> {
+        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err(Error::InvalidCamera("eye, target and up must be finite".into()));
+        }
+        let forward = self.target - self.eye;
+        if forward.length_squared() < 1e-20 {
+            return Err(Error::InvalidCamera("eye and target coincide: the viewing direction is undefined".into()));
+        }
+        if forward.normalize().cross(self.up).length_squared() < 1e-12 {
+            return Err(Error::InvalidCamera(
+                "`up` is parallel to the viewing direction: choose another up vector".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// World → camera rotation in diffsil's camera axes; rows are the camera's right, up and
+    /// backward axes (for [`Camera::extrinsics`]: `diag(1, −1, −1)·R`).
     pub fn rotation(&self) -> Mat3 {
+        if let Some(e) = &self.extrinsics {
+            return FLIP * e.rotation;
+        }
         let back = (self.eye - self.target).normalize();
         let right = self.up.cross(back).normalize();
         let up = back.cross(right);
@@ -143,22 +320,36 @@ impl Camera {
     /// The per-view constants the `project` stage uses (CPU and WGSL alike).
     pub fn params(&self) -> ViewParams {
         let r = self.rotation();
-        let t = -(r * self.eye);
-        let (scale, perspective) = match self.projection {
-            Projection::Perspective { fov_y } => (0.5 * self.height as f32 / (0.5 * fov_y).tan(), 1),
-            Projection::Orthographic { height } => (self.height as f32 / height, 0),
+        let t = match &self.extrinsics {
+            Some(e) => FLIP * e.translation,
+            None => -(r * self.eye),
+        };
+        let image_centre = [0.5 * self.width as f32, 0.5 * self.height as f32];
+        let (scale, centre, perspective) = match self.projection {
+            Projection::Perspective { fov_y } => {
+                let s = 0.5 * self.height as f32 / (0.5 * fov_y).tan();
+                ([s, s], image_centre, 1)
+            }
+            Projection::Pinhole { fx, fy, cx, cy } => ([fx, fy], [cx, cy], 1),
+            Projection::Orthographic { height } => {
+                let s = self.height as f32 / height;
+                ([s, s], image_centre, 0)
+            }
         };
         ViewParams {
             row0: r.row(0).extend(t.x).to_array(),
             row1: r.row(1).extend(t.y).to_array(),
             row2: r.row(2).extend(t.z).to_array(),
-            centre: [0.5 * self.width as f32, 0.5 * self.height as f32],
+            centre,
             scale,
             perspective,
             near: self.near,
             far: self.far,
             width: self.width,
             height: self.height,
+            pad0: 0,
+            pad1: 0,
+            pad2: 0,
         }
     }
 }
@@ -243,7 +434,7 @@ impl ViewParams {
         } else {
             (c.x, c.y)
         };
-        let screen = Vec2::new(self.centre[0] + self.scale * x, self.centre[1] - self.scale * y);
+        let screen = Vec2::new(self.centre[0] + self.scale[0] * x, self.centre[1] - self.scale[1] * y);
         let valid =
             in_range && screen.x.abs() < crate::mirror::COORD_LIMIT && screen.y.abs() < crate::mirror::COORD_LIMIT;
         (if valid { screen } else { Vec2::ZERO }, valid)
@@ -261,11 +452,11 @@ impl ViewParams {
             if !(depth > self.near && depth < self.far) {
                 return [Vec3::ZERO; 2];
             }
-            let k = self.scale / depth;
+            let (kx, ky) = (self.scale[0] / depth, self.scale[1] / depth);
             // d = −r2·p − t.z, so ∂(c.x/d)/∂p = r0/d + c.x·r2/d².
-            [k * (r0 + (c.x / depth) * r2), -k * (r1 + (c.y / depth) * r2)]
+            [kx * (r0 + (c.x / depth) * r2), -ky * (r1 + (c.y / depth) * r2)]
         } else {
-            [self.scale * r0, -self.scale * r1]
+            [self.scale[0] * r0, -self.scale[1] * r1]
         }
     }
 }

@@ -12,6 +12,7 @@ mod coincident;
 mod exact;
 mod golden;
 mod layout;
+mod params;
 mod shader_backends;
 mod smoke;
 mod step;

@@ -4,7 +4,7 @@
 use super::*;
 
 /// The documented camera model in f64 (`ViewParams` docs): camera space `c = R·p + t`, depth
-/// `d = −c.z`; perspective `x = cx + s·c.x/d`, `y = cy − s·c.y/d`; orthographic without the
+/// `d = −c.z`; perspective `x = cx + sx·c.x/d`, `y = cy − sy·c.y/d`; orthographic without the
 /// division. `None` when the point is outside `near < d < far`.
 pub fn project_f64(view: &ViewParams, p: DVec3) -> Option<DVec2> {
     let row = |r: [f32; 4]| (DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64), r[3] as f64);
@@ -17,8 +17,8 @@ pub fn project_f64(view: &ViewParams, p: DVec3) -> Option<DVec2> {
         return None;
     }
     let (x, y) = if view.perspective == 1 { (c.x / depth, c.y / depth) } else { (c.x, c.y) };
-    let s = view.scale as f64;
-    Some(DVec2::new(view.centre[0] as f64 + s * x, view.centre[1] as f64 - s * y))
+    let (sx, sy) = (view.scale[0] as f64, view.scale[1] as f64);
+    Some(DVec2::new(view.centre[0] as f64 + sx * x, view.centre[1] as f64 - sy * y))
 }
 
 /// The reference loss of one view of a 3D scene, with its rounding compensation.

@@ -1,0 +1,273 @@
+//! Camera models and gradients to parameters: `Camera::from_opencv` and `Camera::pinhole` against a
+//! hand-computed projection, their validation, and `camera_gradient` / `RigidTransform::backward`
+//! against central differences of the exact-area oracle (`tests/common/fd/`).
+//!
+//! The references move parameters in `f64` and turn each move into the world points that the
+//! *base* camera maps to the same screen points (a camera move is a world move seen from a fixed
+//! camera), so the oracle, its rounding compensation and the `f64` projection of
+//! `tests/common/fd/world.rs` are reused unchanged.
+
+use crate::common::fd::{Rng, ViewReference, H_2D};
+use crate::common::scenes::{blob_3d, torus_fold_3d, Scene3d};
+use diffsil::{
+    camera_gradient, Camera, Error, Extrinsics, Image, Mat3, Projection, RenderSettings, Renderer, RigidTransform,
+    Vec2, Vec3,
+};
+use glam::{DMat3, DQuat, DVec3};
+
+const K: [[f32; 3]; 3] = [[100.0, 0.0, 30.0], [0.0, 80.0, 20.0], [0.0, 0.0, 1.0]];
+/// 90° about the camera's z axis (rows).
+const R: [[f32; 3]; 3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+const T: [f32; 3] = [0.5, -0.25, 4.0];
+
+#[test]
+fn from_opencv_matches_a_hand_computed_projection() {
+    let camera = Camera::from_opencv(K, R, T, 64, 48).unwrap();
+    // p = (0.5, 1, 1): R·p = (−1, 0.5, 1), c = (−0.5, 0.25, 5); OpenCV u = 100·(−0.1) + 30 = 20,
+    // v = 80·0.05 + 20 = 24; diffsil adds half a pixel: (20.5, 24.5).
+    let (s, valid) = camera.params().project(Vec3::new(0.5, 1.0, 1.0));
+    assert!(valid);
+    assert!((s - Vec2::new(20.5, 24.5)).length() < 1e-4, "{s}");
+    // p = (1, 2, 0): c = (−1.5, 0.75, 4): u = −37.5 + 30.5 = −7, v = 15 + 20.5 = 35.5 (off the
+    // image on the left, still a valid projection).
+    let (s, valid) = camera.params().project(Vec3::new(1.0, 2.0, 0.0));
+    assert!(valid);
+    assert!((s - Vec2::new(-7.0, 35.5)).length() < 1e-4, "{s}");
+    // Behind the camera (c.z = 4 + p.z < 0).
+    assert!(!camera.params().project(Vec3::new(0.0, 0.0, -5.0)).1);
+    // The camera centre −Rᵀt and the look-at description agree with the pose.
+    let centre = camera.extrinsics.unwrap().centre();
+    assert!((centre - Vec3::new(0.25, 0.5, -4.0)).length() < 1e-6, "{centre}");
+    assert_eq!(camera.eye, centre);
+    assert_eq!(camera.intrinsics(), [100.0, 80.0, 30.5, 20.5]);
+}
+
+#[test]
+fn pinhole_with_a_perspective_cameras_intrinsics_is_that_camera_bit_for_bit() {
+    let eye = Vec3::new(0.3, 0.4, 2.7);
+    let perspective = Camera::perspective(eye, Vec3::ZERO, 0.8, 48, 40);
+    let [fx, fy, cx, cy] = perspective.intrinsics();
+    assert_eq!((fx, cx, cy), (fy, 24.0, 20.0));
+    let pinhole = Camera::pinhole(eye, Vec3::ZERO, Vec2::new(fx, fy), Vec2::new(cx, cy), 48, 40);
+    assert_eq!(pinhole.params(), perspective.params());
+}
+
+#[test]
+fn from_opencv_of_a_look_at_cameras_pose_projects_like_it() {
+    let look_at = Camera::perspective(Vec3::new(1.0, 0.7, 2.5), Vec3::new(0.1, 0.0, 0.0), 0.9, 50, 30);
+    let pose = look_at.opencv_extrinsics();
+    let [fx, fy, cx, cy] = look_at.intrinsics();
+    let k = [[fx, 0.0, cx - 0.5], [0.0, fy, cy - 0.5], [0.0, 0.0, 1.0]];
+    let r = pose.rotation.transpose().to_cols_array_2d();
+    let calibrated = Camera::from_opencv(k, r, pose.translation.to_array(), 50, 30).unwrap();
+    let mut rng = Rng::new(3);
+    for _ in 0..50 {
+        let p = Vec3::new(rng.uniform() as f32, rng.uniform() as f32, rng.uniform() as f32) - 0.5;
+        let (a, b) = (look_at.params().project(p), calibrated.params().project(p));
+        assert!(a.1 && b.1);
+        assert!((a.0 - b.0).length() < 1e-4, "{} vs {}", a.0, b.0);
+    }
+}
+
+#[test]
+fn bad_calibrations_are_clear_errors() {
+    let bad = |k: [[f32; 3]; 3], r: [[f32; 3]; 3], t: [f32; 3]| match Camera::from_opencv(k, r, t, 64, 48) {
+        Err(Error::InvalidCamera(message)) => message,
+        other => panic!("expected InvalidCamera, got {other:?}"),
+    };
+    let mut k = K;
+    k[0][0] = f32::NAN;
+    assert!(bad(k, R, T).contains("finite"));
+    let mut k = K;
+    k[0][1] = 0.5;
+    assert!(bad(k, R, T).contains("skew"));
+    let mut k = K;
+    k[1][1] = -80.0;
+    assert!(bad(k, R, T).contains("fx, fy > 0"));
+    let mut r = R;
+    r[0][0] = 0.1;
+    assert!(bad(K, r, T).contains("not orthonormal"));
+    let mut r = R;
+    r[2][2] = -1.0;
+    assert!(bad(K, r, T).contains("reflection"));
+    assert!(bad(K, R, [0.0, f32::INFINITY, 1.0]).contains("finite"));
+    assert!(matches!(Camera::from_opencv(K, R, T, 0, 48), Err(Error::InvalidResolution { .. })));
+    let mut pinhole = Camera::pinhole(Vec3::Z * 3.0, Vec3::ZERO, Vec2::new(50.0, 50.0), Vec2::new(5.0, 5.0), 10, 10);
+    pinhole.projection = Projection::Pinhole { fx: 50.0, fy: 0.0, cx: 5.0, cy: 5.0 };
+    assert!(matches!(pinhole.validate(), Err(Error::InvalidCamera(_))));
+    let skewed = Extrinsics { rotation: Mat3::from_diagonal(Vec3::new(1.0, 1.0, 1.001)), translation: Vec3::ZERO };
+    assert!(matches!(skewed.validate(), Err(Error::InvalidCamera(_))));
+}
+
+/// A calibrated camera with non-square pixels and an off-centre principal point, looking at the
+/// origin from `eye`.
+fn calibrated_camera(eye: Vec3, size: u32) -> Camera {
+    let look_at = Camera::perspective(eye, Vec3::new(0.05, -0.03, 0.0), 0.9, size, size);
+    let pose = look_at.opencv_extrinsics();
+    let s = size as f32;
+    let k = [[0.95 * s, 0.0, 0.45 * s], [0.0, 1.1 * s, 0.56 * s], [0.0, 0.0, 1.0]];
+    Camera::from_opencv(k, pose.rotation.transpose().to_cols_array_2d(), pose.translation.to_array(), size, size)
+        .unwrap()
+}
+
+/// `Σ w·I` of view 0 as a function of world points, its oracle reference, and the analytic
+/// gradients: `(reference, ∂L/∂(screen vertex), ∂L/∂(world vertex))`.
+fn view_and_gradients(scene: &Scene3d, seed: u64) -> (ViewReference, Vec<Vec2>, Vec<Vec3>) {
+    let camera = scene.cameras[0];
+    let weights = Rng::new(seed).weights((camera.width * camera.height) as usize);
+    let settings = RenderSettings::default();
+    let mut renderer = Renderer::new(settings).unwrap();
+    let frame = renderer.render(&scene.mesh, &scene.cameras).unwrap();
+    let d = [Image::from_vec(camera.width, camera.height, weights.clone()).unwrap()];
+    let screen = renderer.backward_screen(&frame, &d).unwrap().remove(0);
+    let world = renderer.backward(&frame, &d).unwrap();
+    (ViewReference::new(scene, 0, weights, settings, false, H_2D), screen, world)
+}
+
+fn relative(analytic: f64, fd: f64) -> f64 {
+    (analytic - fd).abs() / fd.abs()
+}
+
+/// Central difference of the view's loss along a one-parameter family of world points.
+fn central(reference: &ViewReference, eps: f64, points: impl Fn(f64) -> Vec<DVec3>) -> f64 {
+    reference.loss_difference(&points(eps), &points(-eps)) / (2.0 * eps)
+}
+
+#[test]
+fn camera_gradient_matches_finite_differences_of_the_oracle() {
+    let eye = Vec3::new(0.4, 0.5, 2.9);
+    let orthographic = |size| Camera::orthographic(eye, Vec3::new(0.05, -0.03, 0.0), 2.4, size, size);
+    let cases = [
+        (blob_3d(), calibrated_camera(eye, 32)),
+        (torus_fold_3d(), calibrated_camera(eye, 40)),
+        (blob_3d(), orthographic(32)),
+    ];
+    for (scene, camera) in cases {
+        let scene = Scene3d { cameras: vec![camera], ..scene };
+        let perspective = !matches!(camera.projection, Projection::Orthographic { .. });
+        let (reference, screen, _) = view_and_gradients(&scene, 11);
+        let analytic = camera_gradient(&camera, scene.mesh.positions(), &screen).unwrap();
+        let pose = camera.opencv_extrinsics();
+        let (r, t) = (pose.rotation.as_dmat3(), pose.translation.as_dvec3());
+        let r_inv = r.inverse();
+        let [fx, fy, cx, cy] = camera.intrinsics().map(f64::from);
+        let base: Vec<DVec3> = scene.mesh.positions().iter().map(|p| p.as_dvec3()).collect();
+        // World points that the base camera sees where the camera moved by (δ, dt, dK) sees `base`.
+        let moved = |delta: DVec3, dt: DVec3, dk: [f64; 4]| -> Vec<DVec3> {
+            let rot = DMat3::from_quat(DQuat::from_scaled_axis(delta)) * r;
+            base.iter()
+                .map(|&p| {
+                    let c = rot * p + t + dt;
+                    let z = if perspective { c.z } else { 1.0 };
+                    let (u, v) = ((fx + dk[0]) * c.x / z + cx + dk[2], (fy + dk[1]) * c.y / z + cy + dk[3]);
+                    let seen = DVec3::new((u - cx) * z / fx, (v - cy) * z / fy, c.z);
+                    r_inv * (seen - t)
+                })
+                .collect()
+        };
+        let e = DVec3::X;
+        let axes = [e, DVec3::Y, DVec3::Z];
+        let mut errors = Vec::new();
+        for (k, axis) in axes.iter().enumerate() {
+            let fd_rot = central(&reference, 1e-5, |s| moved(*axis * s, DVec3::ZERO, [0.0; 4]));
+            errors.push(("rotation", k, analytic.rotation[k] as f64, fd_rot));
+            let fd_t = central(&reference, 1e-5, |s| moved(DVec3::ZERO, *axis * s, [0.0; 4]));
+            errors.push(("translation", k, analytic.translation[k] as f64, fd_t));
+        }
+        for k in 0..4 {
+            let fd_k = central(&reference, 1e-3, |s| {
+                let mut dk = [0.0; 4];
+                dk[k] = s;
+                moved(DVec3::ZERO, DVec3::ZERO, dk)
+            });
+            errors.push(("intrinsic", k, analytic.intrinsics()[k] as f64, fd_k));
+        }
+        if !perspective {
+            // Depth does not move an orthographic image: ∂L/∂t.z is exactly zero.
+            let i = errors.iter().position(|e| e.0 == "translation" && e.1 == 2).unwrap();
+            let (_, _, a, fd) = errors.remove(i);
+            assert!(a == 0.0 && fd.abs() < 1e-6, "orthographic ∂L/∂t.z: analytic {a}, fd {fd}");
+        }
+        let worst = errors.iter().map(|e| relative(e.2, e.3)).fold(0.0, f64::max);
+        println!(
+            "{} ({}): camera parameters, worst relative error {worst:.2e} over {}",
+            scene.name,
+            if perspective { "pinhole" } else { "orthographic" },
+            errors.len()
+        );
+        for (what, k, a, fd) in errors {
+            assert!(fd.abs() > 1e-3, "{}: {what} {k}: the derivative is trivially zero ({fd})", scene.name);
+            assert!(relative(a, fd) < 1e-3, "{}: {what} {k}: analytic {a} vs fd {fd}", scene.name);
+        }
+    }
+}
+
+#[test]
+fn rigid_transform_gradient_matches_finite_differences_of_the_oracle() {
+    for scene in [blob_3d(), torus_fold_3d()] {
+        let size = scene.cameras[0].width;
+        let model: Vec<Vec3> = scene.mesh.positions().to_vec();
+        let transform =
+            RigidTransform { rotation: Vec3::new(0.3, -0.2, 0.4), translation: Vec3::new(0.1, -0.05, 0.2), scale: 0.9 };
+        let mut mesh = scene.mesh.clone();
+        mesh.set_positions(&transform.apply(&model)).unwrap();
+        let scene = Scene3d { mesh, cameras: vec![calibrated_camera(Vec3::new(-0.3, 0.6, 2.8), size)], ..scene };
+        let (reference, _, world) = view_and_gradients(&scene, 12);
+        let analytic = transform.backward(&model, &world).unwrap();
+        let r = transform.matrix().as_dmat3();
+        let (t, s) = (transform.translation.as_dvec3(), transform.scale as f64);
+        // The renderer's own f32 points at the base, moved by the f64 difference of the transform.
+        let base: Vec<DVec3> = scene.mesh.positions().iter().map(|p| p.as_dvec3()).collect();
+        let f64_base: Vec<DVec3> = model.iter().map(|p| s * (r * p.as_dvec3()) + t).collect();
+        let moved = |delta: DVec3, dt: DVec3, ds: f64| -> Vec<DVec3> {
+            let rot = DMat3::from_quat(DQuat::from_scaled_axis(delta)) * r;
+            model
+                .iter()
+                .enumerate()
+                .map(|(v, p)| base[v] + ((s + ds) * (rot * p.as_dvec3()) + t + dt - f64_base[v]))
+                .collect()
+        };
+        let mut checks = Vec::new();
+        for (k, axis) in [DVec3::X, DVec3::Y, DVec3::Z].iter().enumerate() {
+            checks.push((
+                "rotation",
+                k,
+                analytic.rotation[k],
+                central(&reference, 1e-5, |e| moved(*axis * e, DVec3::ZERO, 0.0)),
+            ));
+            checks.push((
+                "translation",
+                k,
+                analytic.translation[k],
+                central(&reference, 1e-5, |e| moved(DVec3::ZERO, *axis * e, 0.0)),
+            ));
+        }
+        checks.push(("scale", 0, analytic.scale, central(&reference, 1e-5, |e| moved(DVec3::ZERO, DVec3::ZERO, e))));
+        let worst = checks.iter().map(|e| relative(e.2 as f64, e.3)).fold(0.0, f64::max);
+        println!("{}: rigid transform, worst relative error {worst:.2e} over {}", scene.name, checks.len());
+        for (what, k, a, fd) in checks {
+            assert!(fd.abs() > 1e-3, "{}: {what} {k}: the derivative is trivially zero ({fd})", scene.name);
+            assert!(relative(a as f64, fd) < 1e-3, "{}: {what} {k}: analytic {a} vs fd {fd}", scene.name);
+        }
+    }
+}
+
+#[test]
+fn retract_takes_the_step_the_gradient_describes() {
+    // A first-order step along −g lowers a linear function of the points by ≈ η·|g|².
+    let model: Vec<Vec3> = diffsil::shapes::icosphere(1).positions().to_vec();
+    let transform = RigidTransform { rotation: Vec3::new(0.2, 0.1, -0.3), translation: Vec3::X, scale: 1.2 };
+    let w: Vec<Vec3> = model.iter().enumerate().map(|(i, p)| Vec3::new(p.y, (i % 3) as f32, -p.x)).collect();
+    let loss = |t: &RigidTransform| -> f64 { t.apply(&model).iter().zip(&w).map(|(p, w)| p.dot(*w) as f64).sum() };
+    let g = transform.backward(&model, &w).unwrap();
+    let eta = 1e-3f32;
+    let step = diffsil::RigidGradient {
+        rotation: -eta * g.rotation,
+        translation: -eta * g.translation,
+        scale: -eta * g.scale,
+    };
+    let predicted =
+        eta as f64 * (g.rotation.length_squared() + g.translation.length_squared() + g.scale * g.scale) as f64;
+    let actual = loss(&transform) - loss(&transform.retract(&step));
+    assert!(relative(actual, predicted) < 2e-2, "decrease {actual} vs predicted {predicted}");
+}
