@@ -91,6 +91,8 @@ use crate::Mesh;
 type Reason<T> = std::result::Result<T, String>;
 
 /// What [`load_gltf`] found in a glTF file.
+// One value per loaded file: boxing the skinned variant would only make matching on it clumsier.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Model {
     /// A mesh whose node has no skin, in world space (the node's world transform is applied).

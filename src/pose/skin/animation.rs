@@ -99,7 +99,8 @@ impl Channel {
     /// Checks the key tables.
     fn validate(&self, joint_count: usize) -> Result<()> {
         let per_key = if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
-        let bad = |why: String| Err(Error::InvalidSettings(format!("animation channel on joint {}: {why}", self.joint)));
+        let bad =
+            |why: String| Err(Error::InvalidSettings(format!("animation channel on joint {}: {why}", self.joint)));
         if self.joint >= joint_count {
             return bad(format!("the skeleton has only {joint_count} joints"));
         }

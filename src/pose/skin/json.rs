@@ -29,7 +29,10 @@ impl Pose {
         let mut object = Value::Object(Default::default());
         if let Value::Object(map) = &mut object {
             map.insert("format".into(), Value::from(POSE_JSON_FORMAT));
-            map.insert("joint_rotations".into(), Value::from(self.joint_rotations.iter().map(|&r| vec3(r)).collect::<Vec<_>>()));
+            map.insert(
+                "joint_rotations".into(),
+                Value::from(self.joint_rotations.iter().map(|&r| vec3(r)).collect::<Vec<_>>()),
+            );
             if self.has_joint_translations() {
                 let list: Vec<Value> = self.joint_translations.iter().map(|&t| vec3(t)).collect();
                 map.insert("joint_translations".into(), Value::from(list));
@@ -52,10 +55,16 @@ impl Pose {
             return Err(bad(format!("`format` is {format:?}, expected \"{POSE_JSON_FORMAT}\"")));
         }
         let number = |v: &Value, field: &str| -> Result<f32> {
-            v.as_f64().map(|x| x as f32).filter(|x| x.is_finite()).ok_or_else(|| bad(format!("`{field}` holds {v}, not a finite number")))
+            v.as_f64()
+                .map(|x| x as f32)
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| bad(format!("`{field}` holds {v}, not a finite number")))
         };
         let triple = |v: &Value, field: &str| -> Result<Vec3> {
-            let list = v.as_array().filter(|l| l.len() == 3).ok_or_else(|| bad(format!("`{field}` holds {v}, not [x, y, z]")))?;
+            let list = v
+                .as_array()
+                .filter(|l| l.len() == 3)
+                .ok_or_else(|| bad(format!("`{field}` holds {v}, not [x, y, z]")))?;
             Ok(Vec3::new(number(&list[0], field)?, number(&list[1], field)?, number(&list[2], field)?))
         };
         let list = |field: &str, required: bool| -> Result<Vec<Value>> {
@@ -67,7 +76,10 @@ impl Pose {
         };
         let field = |name: &str| value.get(name).ok_or_else(|| bad(format!("`{name}` is missing")));
         let pose = Pose {
-            joint_rotations: list("joint_rotations", true)?.iter().map(|v| triple(v, "joint_rotations")).collect::<Result<_>>()?,
+            joint_rotations: list("joint_rotations", true)?
+                .iter()
+                .map(|v| triple(v, "joint_rotations"))
+                .collect::<Result<_>>()?,
             joint_translations: list("joint_translations", false)?
                 .iter()
                 .map(|v| triple(v, "joint_translations"))

@@ -24,7 +24,8 @@ fn animated_doc(doc: &mut Doc) -> String {
     let j = doc.joints(&[[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0]]);
     let w = doc.weights(&[[1.0, 0.0, 0.0, 0.0]; 3]);
     let rest_child = Mat4::from_translation(Vec3::Y) * Mat4::from_quat(Quat::from_rotation_z(0.3));
-    let ibm = doc.matrices(&[Mat4::from_translation(-Vec3::Y), (Mat4::from_translation(Vec3::Y) * rest_child).inverse()]);
+    let ibm =
+        doc.matrices(&[Mat4::from_translation(-Vec3::Y), (Mat4::from_translation(Vec3::Y) * rest_child).inverse()]);
     let times = floats(doc, &[0.0, 2.0], "SCALAR", 2);
     let rotations = [quat(Quat::from_rotation_x(0.2)), quat(Quat::from_rotation_x(1.0))].concat();
     let rot = floats(doc, &rotations, "VEC4", 2);
@@ -47,6 +48,7 @@ fn animated_doc(doc: &mut Doc) -> String {
     let channel = |sampler: usize, node: usize, path: &str| {
         format!(r#"{{"sampler":{sampler},"target":{{"node":{node},"path":"{path}"}}}}"#)
     };
+    let rz = format!("{:?}", quat(Quat::from_rotation_z(0.3)));
     format!(
         r#""scene":0,"scenes":[{{"nodes":[0,1]}}],
         "nodes":[
@@ -62,7 +64,6 @@ fn animated_doc(doc: &mut Doc) -> String {
           {{"name":"cubic","samplers":[{s_cub_r},{s_cub_t}],"channels":[{c_cub_r},{c_cub_t}]}},
           {{"samplers":[{s_scale},{s_lin_t}],"channels":[{c_scale},{c_mesh}]}}
         ]"#,
-        rz = format!("{:?}", quat(Quat::from_rotation_z(0.3))),
         s_step = sampler(times, rot, "STEP"),
         c_step = channel(0, 2, "rotation"),
         s_lin_r = sampler(times, rot, "LINEAR"),
@@ -103,10 +104,10 @@ fn clips_load_with_names_modes_and_ignored_channels() {
     let names: Vec<&str> = clips.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["step", "linear", "cubic", "animation_3"]);
     assert_eq!(clips[0].channels[0].interpolation, Interpolation::Step);
-    assert_eq!(clips[1].channels.iter().map(|c| (c.joint, c.property)).collect::<Vec<_>>(), [
-        (1, Property::Rotation),
-        (0, Property::Translation)
-    ]);
+    assert_eq!(
+        clips[1].channels.iter().map(|c| (c.joint, c.property)).collect::<Vec<_>>(),
+        [(1, Property::Rotation), (0, Property::Translation)]
+    );
     assert_eq!(clips[2].channels[0].values.len(), 6, "cubic splines keep in / value / out per key");
     assert!(clips.iter().all(|c| c.duration == 2.0 || c.channels.is_empty()));
     assert_eq!((clips[3].ignored_scale_channels, clips[3].ignored_other_channels), (1, 1));
@@ -152,7 +153,8 @@ fn cubic_spline_follows_the_hermite_formula() {
     assert_vec3(pose.joint_rotations[1], child_offset(Quat::from_rotation_x(0.6)), "rotation");
     // At s = 0.25: h = (0.84375, 0.28125, 0.15625, −0.09375) (with Δt folded into the tangents).
     let pose = clips[2].sample(&s.skeleton, 0.5).unwrap();
-    let expected = 0.84375 * Vec3::Y + 0.28125 * Vec3::X + 0.15625 * Vec3::new(2.0, 1.0, 0.0) - 0.09375 * Vec3::new(0.0, 0.0, 4.0);
+    let expected =
+        0.84375 * Vec3::Y + 0.28125 * Vec3::X + 0.15625 * Vec3::new(2.0, 1.0, 0.0) - 0.09375 * Vec3::new(0.0, 0.0, 4.0);
     assert_vec3(pose.joint_translations[0], expected - Vec3::Y, "root translation at s = 0.25");
 }
 

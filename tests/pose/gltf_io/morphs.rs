@@ -48,7 +48,8 @@ fn morph_quad(doc: &mut Doc, mesh_extras: &str, skin_extras: &str, second_target
 
 const NAMES: &str = r#","extras":{"targetNames":["wide","tall"]}"#;
 /// Per target, one offset per file joint (file joint 0 = `child`, 1 = `root`).
-const OFFSETS: &str = r#","extras":{"morphJointOffsets":{"wide":[[0.5,0,0],[0.25,0,0]],"tall":[[0,2,0],[0,1,0]],"unused":[]}}"#;
+const OFFSETS: &str =
+    r#","extras":{"morphJointOffsets":{"wide":[[0.5,0,0],[0.25,0,0]],"tall":[[0,2,0],[0,1,0]],"unused":[]}}"#;
 
 #[test]
 fn morph_targets_load_welded_with_names_and_joint_offsets() {
@@ -65,7 +66,10 @@ fn morph_targets_load_welded_with_names_and_joint_offsets() {
     assert_eq!(m.names, ["wide", "tall"]);
     // Welded vertex k is file corner 0, 1, 2, 5: the first primitive's deltas, then the second
     // primitive's last corner.
-    assert_eq!(m.deltas[0], [Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.25), Vec3::new(-0.5, 0.0, 0.0)]);
+    assert_eq!(
+        m.deltas[0],
+        [Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.25), Vec3::new(-0.5, 0.0, 0.0)]
+    );
     assert_eq!(m.deltas[1], [Vec3::ZERO, Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 2.0, 1.0)]);
     // Offsets in the skeleton's order: joint 0 = `root` = file joint 1.
     let offsets = m.joint_offsets.as_ref().unwrap();
@@ -88,11 +92,11 @@ fn morph_targets_load_welded_with_names_and_joint_offsets() {
     let ibm = [Mat4::IDENTITY, Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0))];
     let dp = [Vec3::new(0.125, 0.25, 0.0), Vec3::new(0.25, 0.5, 0.0)];
     let m_j = |j: usize| g[j] * ibm[j] * Mat4::from_translation(-dp[j]);
-    for i in 0..4 {
+    for (i, p) in posed.iter().enumerate() {
         let v = s.mesh.positions()[i] + 0.5 * m.deltas[0][i] + 0.25 * m.deltas[1][i];
         let (js, ws) = (s.joints[i], s.weights[i]);
         let expected: Vec3 = (0..4).map(|k| ws[k] * m_j(js[k] as usize).transform_point3(v)).sum();
-        assert!(posed[i].abs_diff_eq(expected, 1e-5), "vertex {i}: {} vs {expected}", posed[i]);
+        assert!(p.abs_diff_eq(expected, 1e-5), "vertex {i}: {p} vs {expected}");
     }
 }
 
@@ -124,7 +128,8 @@ fn inconsistent_morph_targets_are_clear_errors() {
 #[test]
 #[ignore = "needs DIFFSIL_ASSETS"]
 fn makehuman_body_shapes_move_surface_and_joints() {
-    let path = PathBuf::from(std::env::var_os("DIFFSIL_ASSETS").expect("set DIFFSIL_ASSETS")).join("makehuman-body-7k.glb");
+    let path =
+        PathBuf::from(std::env::var_os("DIFFSIL_ASSETS").expect("set DIFFSIL_ASSETS")).join("makehuman-body-7k.glb");
     let s = skinned(load_gltf(path).unwrap());
     assert_eq!((s.joint_count(), s.shape_count(), s.vertex_count()), (31, 10, 7000));
     assert_eq!(s.skeleton.nodes, (0..31).collect::<Vec<_>>());
