@@ -143,7 +143,10 @@ pub mod scene;
 pub use engine::StageTiming;
 pub use error::{Error, Result};
 pub use mirror::{ViewParams, COORD_LIMIT};
-pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
+pub use render::{
+    frame_bytes, Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets,
+    MAX_FRAME_BYTES, MAX_PIXEL_VALUE,
+};
 pub use scene::camera::{Camera, Orbit, Projection};
 pub use scene::image::Image;
 pub use scene::mesh::{Mesh, Topology};

@@ -5,8 +5,10 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod extreme;
 mod figure;
 mod fit;
+mod fuzz;
 mod gltf_io;
 mod golden;
 mod self_intersection;

@@ -59,7 +59,7 @@ mod read;
 mod skin;
 mod write;
 
-pub use read::{load_gltf, load_gltf_with_info, load_mesh};
+pub use read::{load_gltf, load_gltf_with_info, load_gltf_with_options, load_mesh, LoadOptions};
 pub use write::save_glb;
 
 use crate::pose::skin::SkinnedMesh;
