@@ -174,29 +174,6 @@ pub(super) async fn select_adapter(instance: &wgpu::Instance, choice: &AdapterCh
         })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn adapter_choice_from_strings() {
-        assert_eq!(parse_adapter_choice(""), AdapterChoice::Best);
-        assert_eq!(parse_adapter_choice(" Vulkan "), AdapterChoice::Backend(wgpu::Backends::VULKAN));
-        assert_eq!(parse_adapter_choice("GL"), AdapterChoice::Backend(wgpu::Backends::GL));
-        assert_eq!(parse_adapter_choice("metal"), AdapterChoice::Backend(wgpu::Backends::METAL));
-        assert_eq!(parse_adapter_choice("dx12"), AdapterChoice::Backend(wgpu::Backends::DX12));
-        assert_eq!(parse_adapter_choice("LLVMpipe"), AdapterChoice::Name("LLVMpipe".into()));
-    }
-
-    #[test]
-    fn device_type_order() {
-        use wgpu::DeviceType::*;
-        let mut types = [Cpu, Other, VirtualGpu, IntegratedGpu, DiscreteGpu];
-        types.sort_by_key(|t| device_type_rank(*t));
-        assert_eq!(types, [DiscreteGpu, IntegratedGpu, VirtualGpu, Other, Cpu]);
-    }
-}
-
 /// Samples (pixels × F², summed over the views) from which a call on a software adapter
 /// ([`wgpu::DeviceType::Cpu`]: lavapipe, llvmpipe, SwiftShader) is refused: 2048² pixels at
 /// F = 4. Such an adapter emulates the GPU on the CPU, far slower than the CPU engine: 2048² at
@@ -225,4 +202,27 @@ pub(crate) fn check_software_size(
         needed: samples,
         max: SOFTWARE_ADAPTER_MAX_SAMPLES - 1,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adapter_choice_from_strings() {
+        assert_eq!(parse_adapter_choice(""), AdapterChoice::Best);
+        assert_eq!(parse_adapter_choice(" Vulkan "), AdapterChoice::Backend(wgpu::Backends::VULKAN));
+        assert_eq!(parse_adapter_choice("GL"), AdapterChoice::Backend(wgpu::Backends::GL));
+        assert_eq!(parse_adapter_choice("metal"), AdapterChoice::Backend(wgpu::Backends::METAL));
+        assert_eq!(parse_adapter_choice("dx12"), AdapterChoice::Backend(wgpu::Backends::DX12));
+        assert_eq!(parse_adapter_choice("LLVMpipe"), AdapterChoice::Name("LLVMpipe".into()));
+    }
+
+    #[test]
+    fn device_type_order() {
+        use wgpu::DeviceType::*;
+        let mut types = [Cpu, Other, VirtualGpu, IntegratedGpu, DiscreteGpu];
+        types.sort_by_key(|t| device_type_rank(*t));
+        assert_eq!(types, [DiscreteGpu, IntegratedGpu, VirtualGpu, Other, Cpu]);
+    }
 }

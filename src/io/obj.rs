@@ -17,7 +17,8 @@ use crate::{Mesh, Result};
 ///   write one `v` line per face corner). Left split, every seam edge would have one face on each
 ///   side only and count as an open boundary, i.e. a silhouette edge.
 ///
-/// Errors: [`Error::Io`] if the file cannot be opened or read; [`Error::Format`] if it is not a
+/// Errors: [`Error::Io`](crate::Error::Io) if the file cannot be opened or read;
+/// [`Error::Format`](crate::Error::Format) if it is not a
 /// regular file, is larger than [`MAX_FILE_BYTES`](crate::io::MAX_FILE_BYTES), cannot be parsed
 /// (a face index out of range names the line, the index and the vertex count), holds no
 /// triangle, or has a non-finite coordinate.

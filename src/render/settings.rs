@@ -59,7 +59,7 @@ impl RenderSettings {
     /// supersampling factor are checked per view.)
     pub fn validate(&self) -> Result<()> {
         for (name, value) in [("inside", self.inside), ("outside", self.outside)] {
-            if !(value.abs() <= MAX_PIXEL_VALUE) {
+            if !value.is_finite() || value.abs() > MAX_PIXEL_VALUE {
                 return Err(Error::InvalidSettings(format!(
                     "RenderSettings::{name} is {value:e}: pixel values must be finite and within \
                      ±{MAX_PIXEL_VALUE:e} (images and gradients scale with them); use e.g. 1 and 0"
