@@ -110,6 +110,30 @@ pub enum Error {
         /// What the device allows.
         max: u64,
     },
+    /// A render whose per-pixel buffers would exceed the memory budget
+    /// ([`MAX_FRAME_BYTES`](crate::MAX_FRAME_BYTES)); refused before anything is allocated.
+    #[error(
+        "{what} needs {needed} bytes ({:.2} GiB) of coverage masks and images, above the limit of {limit} bytes \
+         ({:.2} GiB); lower the resolution, the supersampling factor or the number of views per call",
+        *needed as f64 / (1u64 << 30) as f64,
+        *limit as f64 / (1u64 << 30) as f64
+    )]
+    MemoryLimit {
+        /// What was asked for (views, largest size, supersampling).
+        what: String,
+        /// Bytes it would need.
+        needed: u64,
+        /// The budget, bytes.
+        limit: u64,
+    },
+    /// More views in one GPU call than a GPU frame holds.
+    #[error("{views} views were given to the GPU engine, but one GPU frame holds at most {max}; render the views in batches of at most {max}")]
+    TooManyViews {
+        /// Views given.
+        views: usize,
+        /// Views one GPU frame holds.
+        max: usize,
+    },
     /// The GPU device reported an error.
     #[error("GPU error: {0}")]
     Gpu(String),

@@ -144,7 +144,10 @@ pub use engine::StageTiming;
 pub use error::{Error, Result};
 pub use mirror::{ViewParams, COORD_LIMIT};
 pub use render::params::{camera_gradient, CameraGradient, RigidGradient, RigidTransform};
-pub use render::{Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets};
+pub use render::{
+    frame_bytes, Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets,
+    MAX_FRAME_BYTES, MAX_PIXEL_VALUE,
+};
 pub use scene::camera::{Camera, Extrinsics, Orbit, Projection};
 pub use scene::image::Image;
 pub use scene::mesh::{Mesh, Topology};

@@ -30,7 +30,26 @@ pub fn squared_error(image: &Image, target: &Image) -> Result<LossOutput> {
             (2.0 * d) as f32
         })
         .collect();
+    finite_output("squared error", value, &grad)?;
     Ok(LossOutput { value, grad: Image::from_vec(image.width(), image.height(), grad)? })
+}
+
+/// [`Error::InvalidSettings`] when a loss overflowed (its value in f64, or `∂L/∂I` in f32), naming
+/// the pixel: values whose difference is near `f32::MAX` (e.g. targets of ±3e38).
+fn finite_output(what: &str, value: f64, grad: &[f32]) -> Result<()> {
+    if let Some(p) = grad.iter().position(|g| !g.is_finite()) {
+        return Err(Error::InvalidSettings(format!(
+            "{what}: ∂L/∂I at pixel {p} is {} (beyond f32): the image and target values are too large; keep \
+             targets and the inside/outside values within ±1e18",
+            grad[p]
+        )));
+    }
+    if !value.is_finite() {
+        return Err(Error::InvalidSettings(format!(
+            "{what}: the loss is {value}: the image and target values are too large; keep them within ±1e18"
+        )));
+    }
+    Ok(())
 }
 
 /// Soft intersection over union: `L = 1 − Σ I·T / Σ (I + T − I·T)`, for values in [0, 1].
@@ -58,6 +77,7 @@ pub fn soft_iou(image: &Image, target: &Image) -> Result<LossOutput> {
             (-(t * union - inter * (1.0 - t)) / u2) as f32
         })
         .collect();
+    finite_output("soft IoU", value, &grad)?;
     Ok(LossOutput { value, grad: Image::from_vec(image.width(), image.height(), grad)? })
 }
 

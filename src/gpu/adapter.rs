@@ -174,6 +174,36 @@ pub(super) async fn select_adapter(instance: &wgpu::Instance, choice: &AdapterCh
         })
 }
 
+/// Samples (pixels × F², summed over the views) from which a call on a software adapter
+/// ([`wgpu::DeviceType::Cpu`]: lavapipe, llvmpipe, SwiftShader) is refused: 2048² pixels at
+/// F = 4. Such an adapter emulates the GPU on the CPU, far slower than the CPU engine: 2048² at
+/// F = 4 takes about a minute on lavapipe and 4096² many minutes, which looks like a hang. Calls
+/// of this many samples or more are refused at once ([`Error::GpuLimit`]) unless
+/// `DIFFSIL_SOFTWARE_GPU_ANY_SIZE=1` is set.
+pub const SOFTWARE_ADAPTER_MAX_SAMPLES: u64 = 2048 * 2048 * 16;
+
+/// [`Error::GpuLimit`] for a call of [`SOFTWARE_ADAPTER_MAX_SAMPLES`] or more on a software adapter.
+pub(crate) fn check_software_size(
+    adapter: &AdapterReport,
+    params: &[crate::mirror::RasterParams],
+) -> crate::Result<()> {
+    if adapter.device_type != wgpu::DeviceType::Cpu {
+        return Ok(());
+    }
+    let samples: u64 =
+        params.iter().map(|p| u64::from(p.width) * u64::from(p.height) * u64::from(p.supersample).pow(2)).sum();
+    if samples < SOFTWARE_ADAPTER_MAX_SAMPLES || std::env::var("DIFFSIL_SOFTWARE_GPU_ANY_SIZE").is_ok_and(|v| v == "1")
+    {
+        return Ok(());
+    }
+    Err(crate::Error::GpuLimit {
+        limit: "samples per call on a software GPU adapter (it would take minutes; the CPU engine is faster, \
+                or set DIFFSIL_SOFTWARE_GPU_ANY_SIZE=1)",
+        needed: samples,
+        max: SOFTWARE_ADAPTER_MAX_SAMPLES - 1,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

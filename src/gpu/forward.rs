@@ -92,8 +92,9 @@ impl GpuBackend {
             });
         }
         if n > MAX_VIEWS {
-            return Err(Error::GpuLimit { limit: "views per GPU frame", needed: n as u64, max: MAX_VIEWS as u64 });
+            return Err(Error::TooManyViews { views: n, max: MAX_VIEWS });
         }
+        super::adapter::check_software_size(self.adapter(), params)?;
         self.ensure_topology(topology)?;
         let shape = Shape {
             topology: Arc::as_ptr(topology) as usize,

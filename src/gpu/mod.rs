@@ -70,7 +70,7 @@ mod record;
 pub mod shader;
 pub mod stages;
 
-pub use adapter::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuOptions};
+pub use adapter::{hardware_gpu_available, AdapterChoice, AdapterReport, GpuOptions, SOFTWARE_ADAPTER_MAX_SAMPLES};
 #[doc(hidden)]
 pub use context::dispatch_1d_with_limit;
 pub use context::GpuContext;

@@ -1,12 +1,13 @@
 //! PNG images: rendered images out, silhouette targets in.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::{BufWriter, Cursor, Write};
 use std::path::Path;
 
 use image::{DynamicImage, ImageEncoder};
 
-use super::format_error;
+use super::{format_error, read_regular_file, MAX_FILE_BYTES};
+use crate::scene::camera::MAX_RESOLUTION;
 use crate::{Error, Image, Result};
 
 /// Saves an image as an 8-bit grayscale PNG: each value is clamped to [0, 1], scaled by 255 and
@@ -32,6 +33,10 @@ pub fn save_png(image: &Image, path: impl AsRef<Path>) -> Result<()> {
     writer.flush().map_err(io_error)
 }
 
+/// Most memory [`load_png_target`] lets the PNG decoder allocate: 1 GiB (a 16384² RGBA 8-bit
+/// image). A file declaring more is refused before its pixels are decoded.
+pub const MAX_PNG_DECODE_BYTES: u64 = 1 << 30;
+
 /// How [`load_png_target`] turns a PNG's pixels into target values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TargetMode {
@@ -54,8 +59,15 @@ pub enum TargetMode {
 ///
 /// [`TargetMode`] then keeps that value or thresholds it to 0/1.
 ///
+/// Untrusted files: the file must be a regular file of at most
+/// [`MAX_FILE_BYTES`](crate::io::MAX_FILE_BYTES); the decoder refuses images with a side above
+/// [`MAX_RESOLUTION`](crate::scene::camera::MAX_RESOLUTION) (no view can render larger) and
+/// decoded pixel data above [`MAX_PNG_DECODE_BYTES`], before decoding (a small compressed file
+/// can declare a huge image).
+///
 /// Errors: [`Error::Io`] if the file cannot be read; [`Error::Format`] if it is not a PNG the
-/// decoder accepts; [`Error::InvalidSettings`] for a NaN threshold.
+/// decoder accepts, is truncated, or is above the limits; [`Error::InvalidSettings`] for a NaN
+/// threshold.
 pub fn load_png_target(path: impl AsRef<Path>, mode: TargetMode) -> Result<Image> {
     let path = path.as_ref();
     if let TargetMode::Threshold(t) = mode {
@@ -63,8 +75,14 @@ pub fn load_png_target(path: impl AsRef<Path>, mode: TargetMode) -> Result<Image
             return Err(Error::InvalidSettings("the target threshold is NaN: use a number such as 0.5".into()));
         }
     }
-    let file = File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-    let decoded = image::load(BufReader::new(file), image::ImageFormat::Png).map_err(|e| image_error(path, e))?;
+    let bytes = read_regular_file(path, MAX_FILE_BYTES, "a PNG file", "downscale the image")?;
+    let mut reader = image::ImageReader::with_format(Cursor::new(bytes), image::ImageFormat::Png);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_RESOLUTION);
+    limits.max_image_height = Some(MAX_RESOLUTION);
+    limits.max_alloc = Some(MAX_PNG_DECODE_BYTES);
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(|e| image_error(path, e))?;
     let (width, height) = (decoded.width(), decoded.height());
     let mut values = match &decoded {
         DynamicImage::ImageLuma8(b) => pixel_values(b.as_raw(), 1, u8::MAX.into()),
@@ -118,9 +136,34 @@ fn unit(v: f32) -> f32 {
     }
 }
 
+/// The decoder's error as ours: a file that ends early is a truncated PNG, a limit names the
+/// limit.
 fn image_error(path: &Path, e: image::ImageError) -> Error {
+    use image::error::{ImageError, LimitErrorKind};
     match e {
-        image::ImageError::IoError(source) => Error::Io { path: path.to_path_buf(), source },
-        other => format_error(path, format!("not a usable PNG image: {other}")),
+        ImageError::IoError(source) if source.kind() == std::io::ErrorKind::UnexpectedEof => format_error(
+            path,
+            "truncated PNG: the file ends before the image data is complete; re-export or re-download it".into(),
+        ),
+        ImageError::IoError(source) => Error::Io { path: path.to_path_buf(), source },
+        ImageError::Limits(limit) => {
+            let which = match limit.kind() {
+                LimitErrorKind::DimensionError => {
+                    format!("a side above the largest supported resolution, {MAX_RESOLUTION} pixels")
+                }
+                LimitErrorKind::InsufficientMemory => {
+                    format!("more than the decoding limit of {MAX_PNG_DECODE_BYTES} bytes of pixel data")
+                }
+                _ => format!("an unsupported size ({limit})"),
+            };
+            format_error(path, format!("PNG image refused before decoding: it declares {which}; downscale it first"))
+        }
+        other => {
+            let text = other.to_string();
+            if text.contains("end of file") || text.contains("EOF") || text.contains("truncated") {
+                return format_error(path, format!("truncated PNG ({text}): re-export or re-download it"));
+            }
+            format_error(path, format!("not a usable PNG image: {text}"))
+        }
     }
 }

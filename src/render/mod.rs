@@ -16,7 +16,7 @@ pub use crate::engine::{BackwardStats, RenderStats};
 use crate::engine::{Engine, StageTiming, ViewInput};
 use frame::Source;
 pub use frame::{Frame, ScreenView};
-pub use settings::{Backend, RenderSettings};
+pub use settings::{frame_bytes, Backend, RenderSettings, MAX_FRAME_BYTES, MAX_PIXEL_VALUE};
 pub use step::{Step, Targets};
 
 use crate::cpu::CpuEngine;
@@ -197,6 +197,9 @@ impl Renderer {
         let d: Vec<&[f32]> = d_images.iter().map(|i| i.data()).collect();
         let (grads, stats) = self.engine.backward(frame.engine_ref(), &d)?;
         self.last_backward = stats;
+        for (view, g) in grads.iter().enumerate() {
+            views::check_finite_gradients("backward", Some(view), g, |g: Vec2| g.is_finite())?;
+        }
         Ok(grads)
     }
 
@@ -209,7 +212,9 @@ impl Renderer {
             ));
         };
         let screen_grads = self.backward_screen(frame, d_images)?;
-        Ok(views::chain_to_3d(positions, views, &screen_grads))
+        let grads = views::chain_to_3d(positions, views, &screen_grads);
+        views::check_finite_gradients("backward", None, &grads, |g: Vec3| g.is_finite())?;
+        Ok(grads)
     }
 
     /// Segment counts of the last backward, per view.

@@ -81,10 +81,19 @@ impl Renderer {
         let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
         let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;
         self.last_backward = out.backward;
+        let gradient = super::views::chain_to_3d(mesh.positions(), &views, &out.screen_grads);
+        super::views::check_finite_gradients("squared_error_step", None, &gradient, |g: Vec3| g.is_finite())?;
+        if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
+            return Err(Error::InvalidSettings(format!(
+                "squared_error_step: the loss of view {view} overflowed ({}): the targets or the inside/outside \
+                 values are too large; keep them within ±1e18",
+                out.view_losses[view]
+            )));
+        }
         Ok(Step {
             loss: out.view_losses.iter().sum(),
             view_losses: out.view_losses,
-            gradient: super::views::chain_to_3d(mesh.positions(), &views, &out.screen_grads),
+            gradient,
             screen_gradients: out.screen_grads,
             stats: out.stats,
         })

@@ -11,6 +11,7 @@ use crate::{Camera, Error, Result, ScreenView};
 
 /// Raster constants for a `width × height` view with these settings.
 pub(super) fn raster_params(settings: &RenderSettings, width: u32, height: u32) -> Result<RasterParams> {
+    settings.validate()?;
     RasterParams::new(width, height, settings.supersample, settings.inside, settings.outside)
 }
 
@@ -26,6 +27,7 @@ pub(super) fn world_views(
         views.push(camera.params());
         params.push(raster_params(settings, camera.width, camera.height)?);
     }
+    super::settings::check_frame_memory(&params)?;
     Ok((views, params))
 }
 
@@ -62,6 +64,7 @@ pub(super) fn screen_views(
             .collect();
         screens.push(screen);
     }
+    super::settings::check_frame_memory(&params)?;
     Ok((params, screens))
 }
 
@@ -81,4 +84,23 @@ pub(super) fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], screen_grads
         }
     });
     grads
+}
+
+/// [`Error::InvalidSettings`] when a gradient overflowed f32 (finite inputs can: ∂L/∂I near the f32
+/// limit, or vertices at tiny depths before a perspective camera), naming the view and vertex.
+pub(super) fn check_finite_gradients<T: Copy + std::fmt::Debug>(
+    what: &str,
+    view: Option<usize>,
+    grads: &[T],
+    finite: impl Fn(T) -> bool,
+) -> Result<()> {
+    let Some(v) = grads.iter().position(|&g| !finite(g)) else {
+        return Ok(());
+    };
+    let in_view = view.map_or(String::new(), |k| format!(" in view {k}"));
+    Err(Error::InvalidSettings(format!(
+        "{what}: the gradient of vertex {v}{in_view} overflowed f32 ({:?}): ∂L/∂I, the inside/outside values or \
+         the scene are too large (or vertices too close to a perspective camera); scale them down",
+        grads[v]
+    )))
 }

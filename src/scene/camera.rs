@@ -21,6 +21,16 @@ use crate::{Error, Result};
 /// Largest supported image side, in pixels.
 pub const MAX_RESOLUTION: u32 = 16384;
 
+/// Largest magnitude [`Camera::validate`] accepts for a coordinate of the eye or the target: 1e18
+/// (squared distances stay far inside f32).
+pub const MAX_CAMERA_COORDINATE: f64 = 1e18;
+
+/// Shortest `up` vector [`Camera::validate`] accepts: 1e-12.
+const MIN_UP_LENGTH: f64 = 1e-12;
+/// Longest `up` vector [`Camera::validate`] accepts: 1e12 (its cross product with the unit
+/// viewing direction is normalised in f32).
+const MAX_UP_LENGTH: f64 = 1e12;
+
 /// How camera-space points map to the image plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
@@ -84,6 +94,13 @@ impl Extrinsics {
         }
         if self.rotation.determinant() < 0.0 {
             return Err(Error::InvalidCamera("extrinsics: R is a reflection (determinant −1), not a rotation".into()));
+        }
+        let far = self.translation.abs().max_element() as f64;
+        if far > MAX_CAMERA_COORDINATE {
+            return Err(Error::InvalidCamera(format!(
+                "extrinsics: t has a coordinate of {far:e}, beyond ±{MAX_CAMERA_COORDINATE:e}: the projection would \
+                 overflow; move the scene and the camera closer to the origin"
+            )));
         }
         Ok(())
     }
@@ -246,7 +263,10 @@ impl Camera {
         [p.scale[0], p.scale[1], p.centre[0], p.centre[1]]
     }
 
-    /// Checks that the camera can form an image; every render calls this.
+    /// Checks that the camera can form an image; every render calls this. Besides a supported
+    /// resolution, finite values, `near < far` and a valid projection, it needs the eye and target
+    /// within ±[`MAX_CAMERA_COORDINATE`] and an `up` of length 1e-12 to 1e12 that is not parallel
+    /// to the viewing direction; each error names the value and what to do.
     pub fn validate(&self) -> Result<()> {
         if self.width == 0 || self.height == 0 || self.width > MAX_RESOLUTION || self.height > MAX_RESOLUTION {
             return Err(Error::InvalidResolution { width: self.width, height: self.height, max: MAX_RESOLUTION });
@@ -293,11 +313,31 @@ impl Camera {
         if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
             return Err(Error::InvalidCamera("eye, target and up must be finite".into()));
         }
-        let forward = self.target - self.eye;
+        // In f64: `target - eye` and its square overflow f32 for an eye farther than ~1.8e19.
+        let (eye, target, up) = (self.eye.as_dvec3(), self.target.as_dvec3(), self.up.as_dvec3());
+        let far = eye.abs().max_element().max(target.abs().max_element());
+        if far > MAX_CAMERA_COORDINATE {
+            return Err(Error::InvalidCamera(format!(
+                "the eye or target has a coordinate of {far:e}, beyond ±{MAX_CAMERA_COORDINATE:e}: the projection \
+                 would overflow; move the scene and the camera closer to the origin"
+            )));
+        }
+        let forward = target - eye;
         if forward.length_squared() < 1e-20 {
             return Err(Error::InvalidCamera("eye and target coincide: the viewing direction is undefined".into()));
         }
-        if forward.normalize().cross(self.up).length_squared() < 1e-12 {
+        // The parallel check on the normalised `up` (in f64, so its length cannot overflow); the
+        // projection normalises `up × back` in f32, so `up` must have a moderate length.
+        let up_length = up.length();
+        if !(MIN_UP_LENGTH..=MAX_UP_LENGTH).contains(&up_length) {
+            return Err(Error::InvalidCamera(format!(
+                "`up` has length {:e}, outside [{MIN_UP_LENGTH:e}, {MAX_UP_LENGTH:e}]: pass a direction of \
+                 moderate length such as (0, 1, 0)",
+                up_length as f32
+            )));
+        }
+        let up = up / up_length;
+        if forward.normalize().cross(up).length_squared() < 1e-12 {
             return Err(Error::InvalidCamera(
                 "`up` is parallel to the viewing direction: choose another up vector".into(),
             ));

@@ -52,8 +52,27 @@ impl Image {
     }
 
     /// Value of pixel (row, column).
+    ///
+    /// # Panics
+    ///
+    /// When the pixel is outside the image (`row >= height` or `column >= width`), naming both; use
+    /// [`Image::checked_get`] for indices that may be out of range.
     pub fn get(&self, row: u32, column: u32) -> f32 {
-        self.data[row as usize * self.width as usize + column as usize]
+        match self.checked_get(row, column) {
+            Some(v) => v,
+            None => panic!(
+                "Image::get: pixel (row {row}, column {column}) is outside the {}x{} image",
+                self.width, self.height
+            ),
+        }
+    }
+
+    /// Value of pixel (row, column), or `None` when it is outside the image.
+    pub fn checked_get(&self, row: u32, column: u32) -> Option<f32> {
+        if row >= self.height || column >= self.width {
+            return None;
+        }
+        self.data.get(row as usize * self.width as usize + column as usize).copied()
     }
 
     /// Errors with [`Error::SizeMismatch`] unless this image is `width × height`.

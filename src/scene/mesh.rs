@@ -222,8 +222,25 @@ impl Topology {
 
     /// Faces adjacent to edge `e` (one for an open boundary, two for a manifold edge, more for a
     /// non-manifold one).
+    ///
+    /// # Panics
+    ///
+    /// When `e` is not an edge index (`e >= edges().len()`); use [`Topology::checked_edge_faces`]
+    /// for indices that may be out of range.
     pub fn edge_faces(&self, e: usize) -> &[u32] {
-        &self.edge_faces[self.edge_face_offsets[e] as usize..self.edge_face_offsets[e + 1] as usize]
+        match self.checked_edge_faces(e) {
+            Some(faces) => faces,
+            None => {
+                panic!("Topology::edge_faces: edge {e} does not exist; the topology has {} edges", self.edges.len())
+            }
+        }
+    }
+
+    /// Faces adjacent to edge `e`, or `None` when there is no edge `e`.
+    pub fn checked_edge_faces(&self, e: usize) -> Option<&[u32]> {
+        let start = *self.edge_face_offsets.get(e)? as usize;
+        let end = *self.edge_face_offsets.get(e.checked_add(1)?)? as usize;
+        self.edge_faces.get(start..end)
     }
 
     /// CSR offsets of [`Topology::edge_face_list`] (length `edges + 1`).

@@ -6,6 +6,7 @@
 
 pub mod fd;
 pub mod files;
+pub mod fuzz;
 pub mod golden;
 #[cfg(feature = "gpu")]
 pub mod gpu;

@@ -349,3 +349,155 @@ fn invalid_cameras_are_errors() {
         assert!(matches!(err, Error::InvalidCamera(_)), "camera {k}: {err}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Extreme but finite values (issue 13): an error naming the value and the fix, or a finite result.
+
+/// The message of an `Err`, checked to mention every word.
+fn error_mentions<T: std::fmt::Debug>(result: diffsil::Result<T>, words: &[&str]) -> String {
+    let message = match result {
+        Err(e) => e.to_string(),
+        Ok(v) => panic!("expected an error mentioning {words:?}, got {v:?}"),
+    };
+    for word in words {
+        assert!(message.contains(word), "`{message}` should mention `{word}`");
+    }
+    message
+}
+
+#[test]
+fn a_render_above_the_memory_budget_is_an_error_naming_size_and_limit() {
+    let s = scenes::triangle();
+    let settings = RenderSettings { supersample: 16, ..RenderSettings::default() };
+    let mut r = Renderer::new(settings).unwrap();
+    let view = ScreenView { vertices: s.vertices.clone(), width: 16384, height: 16384 };
+    let needed = diffsil::frame_bytes(16384, 16384, 16);
+    assert!(needed > diffsil::MAX_FRAME_BYTES);
+    let message = error_mentions(
+        r.render_screen(&s.topology(), &[view]),
+        &["16384x16384", "F = 16", &needed.to_string(), &diffsil::MAX_FRAME_BYTES.to_string(), "lower the resolution"],
+    );
+    println!("{message}");
+    // The same through cameras, and summed over views: 3 views of 8192² at F = 16 (2.25 GiB each).
+    let mut cams = vec![camera(8192, 8192); 3];
+    error_mentions(r.render(&tri_mesh(), &cams), &["3 view(s)", "8192x8192", "GiB"]);
+    cams.truncate(1);
+    cams[0] = camera(64, 64);
+    assert!(r.render(&tri_mesh(), &cams).is_ok(), "a small render still works");
+}
+
+#[test]
+fn extreme_pixel_values_are_rejected_with_the_setting_named() {
+    let s = scenes::triangle();
+    for (inside, outside, name) in [(f32::MAX, 0.0, "inside"), (1.0, -3e38, "outside"), (2e18, 0.0, "inside")] {
+        let settings = RenderSettings { inside, outside, ..RenderSettings::default() };
+        error_mentions(settings.validate(), &[&format!("RenderSettings::{name}"), "1e18", "use e.g. 1 and 0"]);
+        error_mentions(Renderer::new(settings), &[&format!("RenderSettings::{name}"), "1e18"]);
+    }
+    // At the limit everything stays finite, even with ∂L/∂I of 1e18.
+    let mut r = Renderer::new(RenderSettings { inside: 1e18, outside: -1e18, ..RenderSettings::default() }).unwrap();
+    let frame = r.render_screen(&s.topology(), &[s.view()]).unwrap();
+    assert!(frame.images()[0].data().iter().all(|v| v.is_finite()));
+    let d: Vec<Image> = frame.images().iter().map(|i| Image::filled(i.width(), i.height(), 1e18)).collect();
+    match r.backward_screen(&frame, &d) {
+        Ok(g) => assert!(g[0].iter().all(|g| g.is_finite())),
+        Err(e) => assert!(e.to_string().contains("overflowed f32") && e.to_string().contains("vertex"), "{e}"),
+    }
+}
+
+#[test]
+fn overflowing_gradients_are_errors_not_infinities() {
+    let s = scenes::triangle();
+    let mut r = renderer();
+    let frame = r.render_screen(&s.topology(), &[s.view()]).unwrap();
+    // ∂L/∂I of 1e38 on every pixel: each vertex gradient sums far beyond f32.
+    let d: Vec<Image> = frame.images().iter().map(|i| Image::filled(i.width(), i.height(), 1e38)).collect();
+    let message = error_mentions(r.backward_screen(&frame, &d), &["overflowed f32", "view 0", "scale them down"]);
+    println!("{message}");
+    // Sub-1e-37 geometry in front of a perspective camera: nothing non-finite comes back as Ok.
+    let tiny = Mesh::new(
+        vec![Vec3::new(-1e-38, -1e-38, 2.9), Vec3::new(1e-38, 0.0, 2.9), Vec3::new(0.0, 1e-38, 2.9)],
+        vec![[0, 1, 2]],
+    )
+    .unwrap();
+    let frame = r.render(&tiny, &[camera(16, 16)]).unwrap();
+    assert!(frame.images()[0].data().iter().all(|v| v.is_finite()));
+    if let Ok(g) = r.backward(&frame, &ones(&frame)) {
+        assert!(g.iter().all(|g| g.is_finite()), "{g:?}");
+    }
+}
+
+#[test]
+fn squared_error_of_huge_targets_is_an_error_naming_the_pixel() {
+    let image = Image::filled(2, 2, 0.0);
+    let mut target = Image::filled(2, 2, 0.0);
+    target.data_mut()[3] = -3e38;
+    error_mentions(loss::squared_error(&image, &target), &["squared error", "pixel 3", "within ±1e18"]);
+    let mut image = Image::filled(2, 2, 0.0);
+    image.data_mut()[1] = 3e38;
+    error_mentions(loss::squared_error(&image, &target), &["pixel 1"]);
+    // Large but representable differences stay finite.
+    target.data_mut()[3] = -1e18;
+    let ok = loss::squared_error(&Image::filled(2, 2, 0.0), &target).unwrap();
+    assert!(ok.value.is_finite() && ok.grad.data().iter().all(|g| g.is_finite()));
+}
+
+#[test]
+fn extreme_cameras_are_errors_that_say_what_is_wrong() {
+    let mesh = tri_mesh();
+    let mut r = renderer();
+    // A huge `up` is a direction like any other… up to a length whose cross product f32 cannot
+    // normalise: that is refused with its length, not rendered as an empty image.
+    let mut cam = camera(8, 8);
+    cam.up = Vec3::new(0.0, 1e6, 0.0);
+    assert!(r.render(&mesh, &[cam]).unwrap().images()[0].data().iter().any(|&v| v > 0.0));
+    cam.up = Vec3::new(0.0, 1e30, 0.0);
+    error_mentions(r.render(&mesh, &[cam]), &["`up` has length 1e30", "(0, 1, 0)"]);
+    cam.up = Vec3::new(0.0, 1e-30, 0.0);
+    error_mentions(r.render(&mesh, &[cam]), &["`up` has length"]);
+    // An eye farther than ~1.8e19 overflowed `|target − eye|²` and was reported as `up` parallel.
+    for far in [2e19f32, 3e38] {
+        let cam = Camera::perspective(Vec3::new(0.0, 0.0, far), Vec3::ZERO, 0.9, 8, 8);
+        let message =
+            error_mentions(r.render(&mesh, &[cam]), &["eye or target", "beyond ±1e18", "closer to the origin"]);
+        assert!(!message.contains("parallel"), "{message}");
+    }
+}
+
+#[test]
+fn out_of_range_indices_have_checked_variants() {
+    let image = Image::from_vec(3, 2, (0..6).map(|v| v as f32).collect()).unwrap();
+    assert_eq!(image.checked_get(1, 2), Some(5.0));
+    assert_eq!(image.get(1, 2), 5.0);
+    // Column 3 of row 0 would be pixel (1, 0) in the row-major data: not a pixel of row 0.
+    assert_eq!(image.checked_get(0, 3), None);
+    assert_eq!(image.checked_get(2, 0), None);
+    let caught = std::panic::catch_unwind(|| image.get(0, 3)).unwrap_err();
+    let text = caught.downcast_ref::<String>().cloned().unwrap_or_default();
+    assert!(text.contains("(row 0, column 3)") && text.contains("3x2"), "{text}");
+
+    let topology = tri_mesh().topology().clone();
+    assert_eq!(topology.checked_edge_faces(0), Some(&[0u32][..]));
+    assert_eq!(topology.checked_edge_faces(3), None);
+    assert_eq!(topology.checked_edge_faces(usize::MAX), None);
+    let mut r = renderer();
+    let frame = r.render(&tri_mesh(), &[camera(8, 8)]).unwrap();
+    assert!(frame.screen_vertices(0).is_some());
+    assert_eq!(frame.screen_vertices(1), None);
+}
+
+#[test]
+fn adam_rejects_bad_learning_rates_and_survives_huge_ones() {
+    use diffsil::optim::Adam;
+    for lr in [f32::NAN, f32::INFINITY, -0.5, 0.0] {
+        let mut params = vec![0.5f32; 3];
+        error_mentions(Adam::new(lr).step(&mut params, &[1.0; 3]), &["learning_rate", "finite number > 0"]);
+        assert_eq!(params, [0.5; 3], "a rejected step must not move the parameters");
+    }
+    let mut params = vec![0.5f32; 3];
+    let mut adam = Adam::new(1e30);
+    for _ in 0..10 {
+        adam.step(&mut params, &[1e38, -1e38, 1e-38]).unwrap();
+    }
+    assert!(params.iter().all(|p| p.is_finite()), "{params:?}");
+}

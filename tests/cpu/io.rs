@@ -177,10 +177,131 @@ fn face_index_out_of_range_is_error() {
         [("oob.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"), ("oob-neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n")]
     {
         match load_obj(write(name, obj.as_bytes())) {
-            Err(Error::Format { reason, .. }) => assert!(reason.contains("out of bounds"), "{name}: {reason}"),
+            Err(Error::Format { reason, .. }) => {
+                // The line, the index, the vertex count and the fix.
+                for word in ["line 4", "index", "out of range", "3 vertices", "fix the `f` line"] {
+                    assert!(reason.contains(word), "{name}: `{reason}` should mention `{word}`");
+                }
+                assert!(reason.contains(if name == "oob.obj" { "index 4" } else { "index -4" }), "{name}: {reason}");
+            }
             other => panic!("{name}: expected a Format error, got {other:?}"),
         }
     }
+    // A negative index counts back from the vertices defined *before* its line.
+    match load_obj(write("early.obj", b"v 0 0 0\nf 1 -2 -1\nv 1 0 0\nv 0 1 0\n")) {
+        Err(Error::Format { reason, .. }) => {
+            assert!(reason.contains("line 2") && reason.contains("-2") && reason.contains("1 vertices"), "{reason}")
+        }
+        other => panic!("expected a Format error, got {other:?}"),
+    }
+}
+
+/// A PNG whose header declares `width × height` at `bit_depth` and colour type `colour`, with no
+/// pixel data: what a decompression bomb looks like before its (tiny, highly compressed) data.
+fn png_header_only(width: u32, height: u32, bit_depth: u8, colour: u8) -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut crc = 0xFFFF_FFFFu32;
+        for &b in bytes {
+            crc ^= u32::from(b);
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+            }
+        }
+        !crc
+    }
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut chunk = |kind: &[u8], data: &[u8]| {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let body: Vec<u8> = kind.iter().chain(data).copied().collect();
+        out.extend_from_slice(&body);
+        out.extend_from_slice(&crc32(&body).to_be_bytes());
+    };
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[bit_depth, colour, 0, 0, 0]);
+    chunk(b"IHDR", &ihdr);
+    chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
+    chunk(b"IEND", &[]);
+    out
+}
+
+#[test]
+fn png_bombs_are_refused_before_decoding() {
+    // 20000² gray: above the largest resolution (the 389 KB file decoded 2 GB).
+    let path = write("wide.png", &png_header_only(20_000, 20_000, 8, 0));
+    let start = std::time::Instant::now();
+    match load_png_target(&path, TargetMode::Coverage) {
+        Err(Error::Format { path: p, reason }) => {
+            assert_eq!(p, path);
+            for word in ["PNG", "refused", "16384", "downscale"] {
+                assert!(reason.contains(word), "`{reason}` should mention `{word}`");
+            }
+        }
+        other => panic!("expected a Format error, got {other:?}"),
+    }
+    // 16384² RGBA 16-bit: a supported size, but 2 GiB of pixels, above the decoding limit.
+    let path = write("deep.png", &png_header_only(16_384, 16_384, 16, 6));
+    match load_png_target(&path, TargetMode::Coverage) {
+        Err(Error::Format { reason, .. }) => {
+            let limit = diffsil::io::MAX_PNG_DECODE_BYTES.to_string();
+            assert!(reason.contains("PNG") && reason.contains(&limit) && reason.contains("downscale"), "{reason}");
+        }
+        other => panic!("expected a Format error, got {other:?}"),
+    }
+    assert!(start.elapsed().as_secs_f64() < 2.0, "refused after {:?}", start.elapsed());
+}
+
+#[test]
+fn truncated_png_says_png_and_truncated() {
+    let image = Image::from_vec(16, 16, (0..256).map(|i| (i % 7) as f32 / 6.0).collect()).unwrap();
+    let path = temp_dir().join("full.png");
+    save_png(&image, &path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let mut truncated_named = 0;
+    for cut in 8..bytes.len() {
+        let path = write("cut.png", &bytes[..cut]);
+        match load_png_target(&path, TargetMode::Coverage) {
+            // Only the IEND chunk (the last 12 bytes) missing: the pixels are all there.
+            Ok(_) if cut >= bytes.len() - 12 => {}
+            Err(Error::Format { path: p, reason }) => {
+                assert_eq!(p, path);
+                assert!(reason.contains("PNG"), "cut at {cut}: `{reason}` should say PNG");
+                truncated_named += usize::from(reason.contains("truncated"));
+            }
+            other => panic!("cut at {cut}: expected a Format error, got {other:?}"),
+        }
+    }
+    // Every cut after the header is an early end of file.
+    assert!(truncated_named >= bytes.len() - 8 - 33, "{truncated_named} of {} cuts said truncated", bytes.len() - 8);
+}
+
+#[test]
+fn loaders_refuse_directories_and_special_files_without_blocking() {
+    let dir = temp_dir();
+    let mut specials = vec![(dir.clone(), "a directory")];
+    let fifo = dir.join("pipe.obj");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
+    if made {
+        specials.push((fifo, "a device, pipe or socket"));
+    }
+    if std::path::Path::new("/dev/zero").exists() {
+        specials.push(("/dev/zero".into(), "a device, pipe or socket"));
+    }
+    for (path, kind) in &specials {
+        let start = std::time::Instant::now();
+        for result in [load_obj(path).map(|_| ()), load_png_target(path, TargetMode::Coverage).map(|_| ())] {
+            match result {
+                Err(Error::Format { path: p, reason }) => {
+                    assert_eq!(&p, path);
+                    assert!(reason.contains(kind) && reason.contains("regular file"), "{}: {reason}", path.display());
+                }
+                other => panic!("{}: expected a Format error, got {other:?}", path.display()),
+            }
+        }
+        assert!(start.elapsed().as_secs_f64() < 1.0, "{} took {:?}", path.display(), start.elapsed());
+    }
+    assert!(specials.len() >= 2, "no FIFO or device to test with");
 }
 
 #[test]

@@ -53,15 +53,16 @@ fn frames_beyond_the_device_limits_are_gpu_limit_errors() {
     let s = scenes::triangle();
     // 16384² at F = 16: 8 mask words per pixel, 8.6 GB of masks.
     let view = ScreenView { vertices: s.vertices.clone(), width: 16384, height: 16384 };
+    // Beyond the renderer's memory budget, refused before any device allocation.
     match gpu.render_screen(&s.topology(), &[view]) {
-        Err(Error::GpuLimit { limit, needed, max }) => println!("16384² at F=16: {limit}: needs {needed}, max {max}"),
-        Err(e) => panic!("expected Error::GpuLimit, got {e}"),
+        Err(e @ Error::MemoryLimit { .. }) => println!("16384² at F=16: {e}"),
+        Err(e) => panic!("expected Error::MemoryLimit, got {e}"),
         Ok(_) => panic!("an 8.6 GB mask buffer cannot fit"),
     }
     // More views than one frame holds.
     let views: Vec<ScreenView> =
         (0..257).map(|_| ScreenView { vertices: s.vertices.clone(), width: 4, height: 4 }).collect();
-    assert!(matches!(gpu.render_screen(&s.topology(), &views), Err(Error::GpuLimit { .. })));
+    assert!(matches!(gpu.render_screen(&s.topology(), &views), Err(Error::TooManyViews { views: 257, max: 256 })));
     // The renderer still works afterwards.
     let frame = gpu.render_screen(&s.topology(), &[s.view()]).unwrap();
     assert!(frame.images()[0].data().iter().any(|&v| v > 0.0));

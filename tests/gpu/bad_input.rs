@@ -287,3 +287,61 @@ fn gpu_clipping_and_empty_meshes_match_the_cpu() {
     assert_eq!(frame.view_count(), 0);
     assert!(b.gpu.backward(&frame, &[]).unwrap().iter().all(|g| *g == Vec3::ZERO));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Limits (issue 13): errors naming the count or size and the limit, before any device work.
+
+#[test]
+fn gpu_limits_name_the_view_count_and_the_software_adapter() {
+    let Some(ctx) = gpu_or_skip("gpu_limits_name_the_view_count_and_the_software_adapter") else { return };
+    let software = ctx.adapter().device_type == wgpu::DeviceType::Cpu;
+    let mut gpu = Renderer::with_gpu_context(RenderSettings::default(), ctx).unwrap();
+    let s = scenes::triangle();
+    let views: Vec<ScreenView> =
+        (0..257).map(|_| ScreenView { vertices: s.vertices.clone(), width: 4, height: 4 }).collect();
+    let message = gpu.render_screen(&s.topology(), &views).unwrap_err().to_string();
+    for word in ["257 views", "at most 256", "batches"] {
+        assert!(message.contains(word), "`{message}` should mention `{word}`");
+    }
+    // 2048² at F = 4 takes a minute on lavapipe: refused at once on a software adapter.
+    let start = std::time::Instant::now();
+    let big = ScreenView { vertices: s.vertices.clone(), width: 2048, height: 2048 };
+    if software {
+        match gpu.render_screen(&s.topology(), std::slice::from_ref(&big)) {
+            Err(e @ Error::GpuLimit { .. }) => {
+                let message = e.to_string();
+                for word in ["software GPU adapter", "CPU engine", "DIFFSIL_SOFTWARE_GPU_ANY_SIZE", "67108864"] {
+                    assert!(message.contains(word), "`{message}` should mention `{word}`");
+                }
+            }
+            other => panic!("expected a GpuLimit error on a software adapter, got {other:?}"),
+        }
+        assert!(start.elapsed().as_secs_f64() < 2.0, "refused after {:?}", start.elapsed());
+    } else {
+        println!("hardware adapter: 2048² renders ({:?})", gpu.render_screen(&s.topology(), &[big]).map(|_| ()));
+    }
+    // Beyond the memory budget: the renderer's error, before the device's own limits.
+    let settings = RenderSettings { supersample: 16, ..RenderSettings::default() };
+    let ctx = gpu_or_skip("gpu_limits_name_the_view_count_and_the_software_adapter").unwrap();
+    let mut gpu16 = Renderer::with_gpu_context(settings, ctx).unwrap();
+    let huge = ScreenView { vertices: s.vertices.clone(), width: 16384, height: 16384 };
+    assert!(matches!(gpu16.render_screen(&s.topology(), &[huge]), Err(Error::MemoryLimit { .. })));
+    // Small frames still render.
+    assert!(gpu.render_screen(&s.topology(), &[s.view()]).is_ok());
+}
+
+#[test]
+fn gpu_random_extreme_scenes_return_errors_or_finite_values() {
+    use crate::common::fuzz::{env_count, fuzz_seed, run_cases, Scene};
+    let Some(ctx) = gpu_or_skip("gpu_random_extreme_scenes_return_errors_or_finite_values") else { return };
+    let settings = RenderSettings::default();
+    let gpu = std::sync::Mutex::new(Renderer::with_gpu_context(settings, ctx).unwrap());
+    let count = env_count("DIFFSIL_FUZZ_GPU_SCENES", 60);
+    let seed = fuzz_seed();
+    let summary = run_cases("GPU scenes", count, move |i| {
+        // The GPU renderer keeps its settings: each scene runs at F = 4 with pixel values 1 / 0.
+        let scene = Scene { settings, ..Scene::random(seed, i) };
+        scene.check(&mut gpu.lock().unwrap_or_else(|e| e.into_inner()))
+    });
+    assert!(summary.ok * 4 > count, "only {} of {count} scenes rendered", summary.ok);
+}

@@ -6,8 +6,10 @@
 mod common;
 
 mod body;
+mod extreme;
 mod figure;
 mod fit;
+mod fuzz;
 mod gltf_io;
 mod golden;
 mod self_intersection;

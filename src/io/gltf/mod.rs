@@ -78,7 +78,7 @@ mod write_mesh;
 
 pub use animation::load_animations;
 pub use bytes::load_gltf_bytes;
-pub use read::{load_gltf, load_gltf_with_info, load_mesh};
+pub use read::{load_gltf, load_gltf_with_info, load_gltf_with_options, load_mesh, LoadOptions};
 pub use write::save_glb;
 pub use write_mesh::save_mesh_glb;
 

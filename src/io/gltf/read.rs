@@ -12,19 +12,55 @@ use super::{LoadInfo, Model, Reason};
 use crate::pose::skin::{MorphTargets, Pose, SkinnedMesh};
 use crate::{Error, Mesh, Result};
 
+/// What to do about a glTF file or buffer above [`LoadOptions::max_file_bytes`].
+pub(super) const TRUSTED: &str = "raise LoadOptions::max_file_bytes if the file is trusted";
+
+/// What a glTF load may read: the limits that keep an untrusted file from reaching outside its
+/// folder or exhausting memory. The defaults ([`LoadOptions::default`]) are safe for files from
+/// anywhere; every count in a file (accessors, vertices, nodes, joints) is bounded by these byte
+/// limits, since each element takes at least one byte of the file or its buffers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Follow external buffer URIs anywhere (absolute paths, `..` above the model's folder,
+    /// symbolic links pointing out of it). Off by default: only files inside the folder of the
+    /// `.gltf` are read. Devices, pipes and sockets are refused either way.
+    pub allow_outside_folder: bool,
+    /// Largest `.gltf`/`.glb` file, and largest single buffer (declared `byteLength` or file), in
+    /// bytes. Default [`MAX_FILE_BYTES`](crate::io::MAX_FILE_BYTES) (1 GiB).
+    pub max_file_bytes: u64,
+    /// Largest sum of all buffers, in bytes. Default 2 GiB.
+    pub max_total_bytes: u64,
+}
+
+impl Default for LoadOptions {
+    /// Inside the model's folder only, 1 GiB per file, 2 GiB of buffers in all.
+    fn default() -> Self {
+        LoadOptions { allow_outside_folder: false, max_file_bytes: crate::io::MAX_FILE_BYTES, max_total_bytes: 2 << 30 }
+    }
+}
+
 /// Loads the first triangle mesh of a `.gltf` (embedded or external buffers) or `.glb` file, with
-/// its skin if its node has one. See the [module docs](super) for what is read and how.
+/// its skin if its node has one, under the default [`LoadOptions`] (buffers only from the model's
+/// folder). See the [module docs](super) for what is read and how.
 pub fn load_gltf(path: impl AsRef<Path>) -> Result<Model> {
     load_gltf_with_info(path).map(|(model, _)| model)
 }
 
 /// [`load_gltf`], also returning what was read and how much welding merged.
 pub fn load_gltf_with_info(path: impl AsRef<Path>) -> Result<(Model, LoadInfo)> {
+    load_gltf_with_options(path, &LoadOptions::default())
+}
+
+/// [`load_gltf_with_info`] under the given [`LoadOptions`].
+///
+/// Errors as [`load_gltf`], and [`Error::Format`] naming the buffer, its URI and the option to
+/// change when a buffer lies outside the model's folder or a file is above a limit.
+pub fn load_gltf_with_options(path: impl AsRef<Path>, options: &LoadOptions) -> Result<(Model, LoadInfo)> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let bytes = crate::io::read_regular_file(path, options.max_file_bytes, "a glTF or GLB file", TRUSTED)?;
     let format = |reason: String| Error::Format { path: path.to_path_buf(), reason };
     let (document, blob) = parse_document(&bytes).map_err(format)?;
-    let buffers = load_buffers(&document, path, blob)?;
+    let buffers = load_buffers(&document, path, blob, options)?;
     read_model(&document, &buffers).map_err(format)
 }
 
@@ -41,7 +77,12 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
         Some("gltf" | "glb") => match load_gltf(path)? {
             Model::Static(mesh) => Ok(mesh),
             Model::Skinned(skinned) => {
-                Mesh::with_topology(skinned.skin(&Pose::rest(skinned.joint_count()))?, skinned.mesh.topology().clone())
+                let in_file = |e: Error| Error::Format {
+                    path: path.to_path_buf(),
+                    reason: format!("the skinned mesh in its rest pose: {e}; check the skeleton's transforms"),
+                };
+                let positions = skinned.skin(&Pose::rest(skinned.joint_count())).map_err(in_file)?;
+                Mesh::with_topology(positions, skinned.mesh.topology().clone()).map_err(in_file)
             }
         },
         _ => Err(Error::Format {
@@ -64,6 +105,9 @@ pub(super) fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reas
     let node = document.nodes().find(|n| n.mesh().is_some_and(|m| m.index() == mesh.index()));
     let skin = node.as_ref().and_then(|n| n.skin());
     let skeleton = skin.as_ref().map(|s| read_skin(s, &graph, buffers)).transpose()?;
+    if let Some((skeleton, _)) = &skeleton {
+        skeleton.validate().map_err(|e| format!("the skin's skeleton: {e}"))?;
+    }
     let skin_map = skeleton
         .as_ref()
         .map(|(skeleton, new_index)| SkinMap { joint_count: skeleton.parents.len(), new_index: new_index.as_slice() });

@@ -40,7 +40,15 @@ pub fn per_vertex_error(a: &[Vec3], b: &[Vec3]) -> f64 {
 /// is decided by faint cues when both start straight (see the [module documentation](super)); a
 /// stride each way puts a start on each side of that choice. Global orientation and translation
 /// stay zero. A skeleton without such a pair gets the rest pose alone.
+///
+/// Errors: [`crate::Error::InvalidSettings`] for a non-finite `angle` (a stride angle is radians,
+/// e.g. 0.35).
 pub fn stride_hypotheses(model: &SkinnedMesh, angle: f32) -> Result<Vec<Pose>> {
+    if !angle.is_finite() {
+        return Err(crate::Error::InvalidSettings(format!(
+            "stride_hypotheses: the stride angle is {angle}; it must be a finite number of radians, e.g. 0.35"
+        )));
+    }
     let rest = Pose::rest(model.joint_count());
     let Some((a, b)) = leg_pair(model) else {
         return Ok(vec![rest]);

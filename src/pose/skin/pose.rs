@@ -124,8 +124,9 @@ impl Pose {
         })
     }
 
-    /// Checks that the pose has one rotation per joint, no or one translation per joint, and only
-    /// finite values.
+    /// Checks that the pose has one rotation per joint, no or one translation per joint, only
+    /// finite values, and translations within ±1e18 per component (beyond it the skinned positions
+    /// overflow f32).
     pub fn validate(&self, joint_count: usize) -> Result<()> {
         if self.joint_rotations.len() != joint_count {
             return Err(Error::LengthMismatch {
@@ -163,6 +164,22 @@ impl Pose {
             return Err(Error::InvalidSettings(format!(
                 "pose: the translation is {:?}; every pose parameter must be a finite number",
                 self.translation
+            )));
+        }
+        if let Some((j, v)) =
+            self.joint_translations.iter().enumerate().find_map(|(j, t)| Some((j, super::skeleton::too_large(&t.to_array())?)))
+        {
+            let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
+            return Err(Error::InvalidSettings(format!(
+                "pose: the translation of joint {j} has a component {v:e}, beyond ±{max:e}; keep the model within \
+                 that range (lower the learning rate if a fit drove it there)"
+            )));
+        }
+        if let Some(v) = super::skeleton::too_large(&self.translation.to_array()) {
+            let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
+            return Err(Error::InvalidSettings(format!(
+                "pose: the translation has a component {v:e}, beyond ±{max:e}; keep the model within that range \
+                 (lower the learning rate if a fit drove it there)"
             )));
         }
         Ok(())

@@ -7,6 +7,16 @@ use super::lbs::JointState;
 use super::Pose;
 use crate::{Error, Result};
 
+/// Largest magnitude [`Skeleton::validate`] and [`Pose::validate`] accept for a translation, a
+/// matrix entry or (in the skeleton) a scale component: 1e18. Chains of transforms near the f32
+/// limit overflow to infinity when composed; real rigs are many orders of magnitude below this.
+pub(crate) const MAX_TRANSFORM_MAGNITUDE: f32 = 1e18;
+
+/// The first component of `values` above [`MAX_TRANSFORM_MAGNITUDE`] in magnitude, if any.
+pub(crate) fn too_large(values: &[f32]) -> Option<f32> {
+    values.iter().copied().find(|v| v.abs() > MAX_TRANSFORM_MAGNITUDE)
+}
+
 /// The rest transform of one joint relative to its parent, as glTF stores it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointRest {
@@ -72,7 +82,8 @@ impl Skeleton {
 
     /// Checks the skeleton: at least one joint, every per-joint vector as long as `parents`, each
     /// parent index before its child, finite rest transforms with unit rotations (within 1e-2; they
-    /// are normalised when used), finite root-parent and inverse bind matrices.
+    /// are normalised when used), finite root-parent and inverse bind matrices, and translations,
+    /// scales and matrix entries within ±1e18 (beyond it composed transforms overflow f32).
     pub fn validate(&self) -> Result<()> {
         let n = self.joint_count();
         if n == 0 {
@@ -113,6 +124,14 @@ impl Skeleton {
                     "skeleton: joint {j} has a non-finite rest transform {rest:?}; every value must be finite"
                 )));
             }
+            let parts = [rest.translation.to_array(), rest.scale.to_array()].concat();
+            if let Some(v) = too_large(&parts) {
+                return Err(Error::InvalidSettings(format!(
+                    "skeleton: joint {j} (`{}`) has a rest translation or scale component {v:e}, beyond \
+                     ±{MAX_TRANSFORM_MAGNITUDE:e}; rescale the model (its transforms would overflow when composed)",
+                    self.names[j]
+                )));
+            }
             let norm = rest.rotation.as_dquat().length();
             if (norm - 1.0).abs() > QUAT_NORM_TOLERANCE {
                 return Err(Error::InvalidSettings(format!(
@@ -126,11 +145,23 @@ impl Skeleton {
                     "skeleton: root joint {j} has a non-finite root-parent matrix; every value must be finite"
                 )));
             }
+            if let Some(v) = too_large(&m.to_cols_array()).filter(|_| self.parents[j].is_none()) {
+                return Err(Error::InvalidSettings(format!(
+                    "skeleton: root joint {j} has a root-parent matrix entry {v:e}, beyond ±{MAX_TRANSFORM_MAGNITUDE:e}; \
+                     rescale the model"
+                )));
+            }
         }
         for (j, m) in self.inverse_bind.iter().enumerate() {
             if !m.is_finite() {
                 return Err(Error::InvalidSettings(format!(
                     "skeleton: joint {j} has a non-finite inverse bind matrix; every value must be finite"
+                )));
+            }
+            if let Some(v) = too_large(&m.to_cols_array()) {
+                return Err(Error::InvalidSettings(format!(
+                    "skeleton: joint {j} has an inverse bind matrix entry {v:e}, beyond ±{MAX_TRANSFORM_MAGNITUDE:e}; \
+                     rescale the model"
                 )));
             }
         }

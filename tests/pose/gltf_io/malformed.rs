@@ -67,7 +67,8 @@ fn garbage_is_an_error() {
     magic_then_noise.extend_from_slice(&2u32.to_le_bytes());
     magic_then_noise.extend_from_slice(&(noise.len() as u32 + 12).to_le_bytes());
     magic_then_noise.extend_from_slice(&noise);
-    format_error(&write("magic.glb", &magic_then_noise), &["not a valid glTF"]);
+    // The header is fine; the first chunk's length field (noise) overruns the file.
+    format_error(&write("magic.glb", &magic_then_noise), &["truncated GLB", "chunk 0", "re-export"]);
     // Valid JSON, not a valid glTF document (bad index).
     format_error(&write("index.gltf", br#"{"asset":{"version":"2.0"},"nodes":[{"mesh":3}]}"#), &["not a valid glTF"]);
     format_error(&write("nomesh.gltf", br#"{"asset":{"version":"2.0"},"nodes":[{}]}"#), &["no mesh"]);
@@ -227,4 +228,169 @@ fn saving_an_inconsistent_model_is_an_error() {
     let mut model = two_joint_box();
     model.skeleton.inverse_bind.pop();
     assert!(matches!(save_glb(&model, &path), Err(Error::Format { .. })));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Untrusted files (issue 13): nothing outside the model's folder, no devices, no panics.
+
+/// A folder `root/model/` holding a `.gltf` whose buffer URI is `uri`, and beside the folder
+/// `root/sentinel.bin` with the very bytes the buffer needs: a loader that follows the URI out of
+/// the folder would succeed. Returns the `.gltf` path and the sentinel's path.
+fn gltf_with_uri(uri_of: impl Fn(&Path) -> String) -> (PathBuf, PathBuf) {
+    let root = temp_dir();
+    let folder = root.join("model");
+    std::fs::create_dir_all(&folder).unwrap();
+    let mut doc = Doc::default();
+    let body = static_doc(&mut doc);
+    let sentinel = root.join("sentinel.bin");
+    std::fs::write(&sentinel, &doc.bin).unwrap();
+    std::fs::write(folder.join("inside.bin"), &doc.bin).unwrap();
+    let gltf = folder.join("model.gltf");
+    std::fs::write(&gltf, doc.json(&body, Some(&uri_of(&sentinel)))).unwrap();
+    (gltf, sentinel)
+}
+
+#[test]
+fn buffer_uris_outside_the_model_folder_are_refused() {
+    // Inside the folder (also through `./` and a `..` that stays inside): loads.
+    for uri in ["inside.bin", "./inside.bin", "sub/../inside.bin", "%69nside.bin"] {
+        let (gltf, _) = gltf_with_uri(|_| uri.to_string());
+        if uri.starts_with("sub/") {
+            std::fs::create_dir_all(gltf.parent().unwrap().join("sub")).unwrap();
+        }
+        assert!(load_gltf(&gltf).is_ok(), "{uri}: {:?}", load_gltf(&gltf).err());
+    }
+    type UriOf = fn(&Path) -> String;
+    let escapes: [(&str, UriOf, &str); 5] = [
+        ("absolute", |s| s.display().to_string(), "absolute path"),
+        ("parent", |_| "../sentinel.bin".into(), "climbs above"),
+        ("deeper parent", |_| "a/../../sentinel.bin".into(), "climbs above"),
+        ("percent-encoded parent", |_| "%2e%2e/sentinel.bin".into(), "climbs above"),
+        ("etc", |_| "/etc/passwd".into(), "absolute path"),
+    ];
+    for (case, uri_of, words) in escapes {
+        let (gltf, _) = gltf_with_uri(uri_of);
+        let reason = format_error(&gltf, &["buffer 0", "outside the model's folder", "allow_outside_folder", words]);
+        println!("{case}: {reason}");
+    }
+    // A symbolic link in the folder pointing out of it.
+    let (gltf, sentinel) = gltf_with_uri(|_| "link.bin".into());
+    std::os::unix::fs::symlink(&sentinel, gltf.parent().unwrap().join("link.bin")).unwrap();
+    format_error(&gltf, &["buffer 0", "symbolic link", "outside the model's folder"]);
+    // Trusted files may opt in.
+    let options = LoadOptions { allow_outside_folder: true, ..LoadOptions::default() };
+    assert!(load_gltf_with_options(&gltf, &options).is_ok());
+    let (gltf, _) = gltf_with_uri(|_| "../sentinel.bin".into());
+    assert!(load_gltf_with_options(&gltf, &options).is_ok());
+}
+
+#[test]
+fn device_and_fifo_buffers_are_refused_without_blocking() {
+    let start = std::time::Instant::now();
+    let options = LoadOptions { allow_outside_folder: true, ..LoadOptions::default() };
+    for device in ["/dev/zero", "/dev/stdin"] {
+        let (gltf, _) = gltf_with_uri(|_| device.into());
+        format_error(&gltf, &["absolute path", "outside the model's folder"]);
+        // Even when allowed outside the folder, a device is not a regular file.
+        match load_gltf_with_options(&gltf, &options) {
+            Err(Error::Format { reason, .. }) => assert!(reason.contains("not a regular file"), "{device}: {reason}"),
+            other => panic!("{device}: expected a Format error, got {other:?}"),
+        }
+    }
+    let (gltf, _) = gltf_with_uri(|_| "pipe.bin".into());
+    let fifo = gltf.parent().unwrap().join("pipe.bin");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    match load_gltf(&gltf) {
+        Err(Error::Format { path, reason }) => {
+            assert_eq!(path, fifo);
+            assert!(reason.contains("pipe") && reason.contains("regular file"), "{reason}");
+        }
+        other => panic!("expected a Format error, got {other:?}"),
+    }
+    assert!(start.elapsed().as_secs_f64() < 2.0, "took {:?}", start.elapsed());
+}
+
+#[test]
+fn buffer_sizes_above_the_limits_are_refused_before_reading() {
+    let (gltf, _) = gltf_with_uri(|_| "inside.bin".into());
+    let small = LoadOptions { max_file_bytes: 16, ..LoadOptions::default() };
+    let reason = match load_gltf_with_options(&gltf, &small) {
+        Err(Error::Format { reason, .. }) => reason,
+        other => panic!("expected a Format error, got {other:?}"),
+    };
+    assert!(reason.contains("limit of 16 bytes") && reason.contains("LoadOptions::max_file_bytes"), "{reason}");
+
+    // A declared byteLength of 1e12 (a data URI cannot back it): refused before decoding.
+    let mut doc = Doc::default();
+    let body = static_doc(&mut doc);
+    let json = doc
+        .embedded_gltf(&body)
+        .replace(&format!(r#""byteLength":{}"#, doc.bin.len()), r#""byteLength":1000000000000"#);
+    format_error(&write("huge.gltf", json.as_bytes()), &["buffer 0", "byteLength of 1000000000000", "above the limit"]);
+    let tight = LoadOptions { max_total_bytes: 8, ..LoadOptions::default() };
+    let glb = write("total.glb", &doc.glb(&body));
+    match load_gltf_with_options(&glb, &tight) {
+        Err(Error::Format { reason, .. }) => assert!(reason.contains("max_total_bytes"), "{reason}"),
+        other => panic!("expected a Format error, got {other:?}"),
+    }
+}
+
+#[test]
+fn an_out_of_range_position_accessor_is_an_error_not_a_panic() {
+    let mut doc = Doc::default();
+    let pos = doc.positions(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let body = format!(r#""meshes":[{{"primitives":[{{"attributes":{{"POSITION":{}}}}}]}}]"#, pos + 7);
+    format_error(
+        &write("accessor.glb", &doc.glb(&body)),
+        &["POSITION accessor 7", "only 1 accessors", "fix the index"],
+    );
+}
+
+#[test]
+fn glb_chunk_errors_name_the_chunk_without_nul_bytes() {
+    let mut doc = Doc::default();
+    let body = static_doc(&mut doc);
+    let mut bytes = doc.glb(&body);
+    // The BIN chunk's length field: after the header, the JSON chunk and its 8-byte header.
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let at = 12 + 8 + json_len;
+    bytes[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+    let reason = format_error(&write("chunk.glb", &bytes), &["truncated GLB", "chunk 1 (`BIN`)", "re-export"]);
+    assert!(!reason.contains('\0'), "{reason:?}");
+}
+
+#[test]
+fn joint_transforms_near_the_f32_limit_are_rejected_with_the_joint_named() {
+    let mut doc = Doc::default();
+    let body = skinned_quad(&mut doc, &QUAD_WEIGHTS, "")
+        .replace(r#"{"name":"child","translation":[0,1,0]}"#, r#"{"name":"child","translation":[0,3e38,0]}"#);
+    assert!(body.contains("3e38"));
+    format_error(&write("far.glb", &doc.glb(&body)), &["skeleton", "joint 1 (`child`)", "3e38", "rescale the model"]);
+    // And a pose that drives a translation there.
+    let model = match load_gltf(write("quad.glb", &doc.glb(&skinned_quad(&mut Doc::default(), &QUAD_WEIGHTS, "")))) {
+        Ok(Model::Skinned(m)) => m,
+        other => panic!("expected a skinned model, got {other:?}"),
+    };
+    let mut pose = diffsil::pose::skin::Pose::rest(model.joint_count());
+    pose.translation = Vec3::new(3e38, 0.0, 0.0);
+    let message = model.skin(&pose).unwrap_err().to_string();
+    assert!(message.contains("translation") && message.contains("3e38") && message.contains("1e18"), "{message}");
+}
+
+#[test]
+fn a_skinned_model_with_a_non_finite_rest_vertex_names_the_file() {
+    // Three nested scales of 1e18 (each allowed) compose to 1e54, beyond f32 once skinned.
+    let mut doc = Doc::default();
+    let body = skinned_quad(&mut doc, &QUAD_WEIGHTS, "")
+        .replace(r#""translation":[0,0,5],"children":[2]"#, r#""scale":[1e18,1e18,1e18],"children":[2]"#)
+        .replace(r#"{"name":"root","translation":[0,1,0]"#, r#"{"name":"root","scale":[1e18,1e18,1e18]"#)
+        .replace(r#"{"name":"child","translation":[0,1,0]}"#, r#"{"name":"child","scale":[1e18,1e18,1e18]}"#);
+    let path = write("overflow.glb", &doc.glb(&body));
+    match diffsil::io::gltf::load_mesh(&path) {
+        Err(Error::Format { path: p, reason }) => {
+            assert_eq!(p, path);
+            assert!(reason.contains("rest pose") && reason.contains("non-finite"), "{reason}");
+        }
+        other => panic!("expected a Format error naming the file, got {other:?}"),
+    }
 }

@@ -8,7 +8,9 @@ use crate::common::files::{temp_dir, write};
 
 use std::path::{Path, PathBuf};
 
-use diffsil::io::gltf::{load_gltf, load_gltf_with_info, load_mesh, save_glb, LoadInfo, Model};
+use diffsil::io::gltf::{
+    load_gltf, load_gltf_with_info, load_gltf_with_options, load_mesh, save_glb, LoadInfo, LoadOptions, Model,
+};
 use diffsil::pose::skin::{JointRest, Skeleton, SkinnedMesh};
 use diffsil::{Error, Mesh, Vec3};
 use glam::{DMat4, DQuat, DVec3, Mat4, Quat};
