@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use crate::common::files::temp_dir;
 use crate::common::fuzz::{env_count, fuzz_seed, mutate, run_cases, Outcome, Scene};
 use crate::common::rng::{Draws, SplitMix64};
-use diffsil::io::gltf::{load_gltf_with_info, load_mesh, save_glb, Model};
+use diffsil::io::gltf::{load_animations, load_gltf_bytes, load_gltf_with_info, load_mesh, save_glb, Model};
 use diffsil::io::{load_obj, load_png_target, save_png, TargetMode};
 use diffsil::pose::skin::{JointRest, Skeleton, SkinnedMesh};
 use diffsil::{Image, Mesh, Renderer, Vec3};
@@ -70,6 +70,8 @@ fn skinned_glb(dir: &Path) -> Vec<u8> {
         rest: vec![JointRest::IDENTITY, child],
         root_parent: vec![Mat4::IDENTITY; 2],
         inverse_bind: vec![Mat4::IDENTITY, Mat4::from_translation(Vec3::new(0.0, -0.5, 0.0))],
+
+        nodes: Vec::new(),
     };
     let weights = vec![[1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.5, 0.5, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
     let model = SkinnedMesh::new(mesh, skeleton, vec![[0, 1, 0, 0]; 4], weights).unwrap();
@@ -187,6 +189,28 @@ fn load_all(ext: &str, path: &Path) -> Outcome {
                 accepted = true;
                 if !mesh_ok(&mesh) {
                     return non_finite("load_mesh");
+                }
+            }
+            // The animation loader, and its clips sampled on the file's own skeleton.
+            if let (Ok(clips), Ok((Model::Skinned(s), _))) = (load_animations(path), load_gltf_with_info(path)) {
+                accepted = true;
+                for clip in &clips {
+                    if !clip.duration.is_finite() {
+                        return non_finite("load_animations");
+                    }
+                    for pose in clip.sample_frames(&s.skeleton, 3).into_iter().flatten() {
+                        if !pose.to_params().iter().all(|v| v.is_finite()) {
+                            return non_finite("Animation::sample");
+                        }
+                    }
+                }
+            }
+            // The in-memory GLB loader on the same bytes.
+            let bytes = std::fs::read(path).expect("the case file was just written");
+            if let Ok((model, _)) = load_gltf_bytes(&bytes, &path.to_string_lossy()) {
+                accepted = true;
+                if !mesh_ok(model.mesh()) {
+                    return non_finite("load_gltf_bytes");
                 }
             }
             Ok(accepted)

@@ -10,6 +10,7 @@ use gltf::animation::{Interpolation as GltfInterpolation, Property as GltfProper
 use super::accessor::read_floats;
 use super::container::{load_buffers, parse_document};
 use super::geometry::is_triangle_mode;
+use super::read::LoadOptions;
 use super::skin::{decompose, read_skin, NodeGraph};
 use super::Reason;
 use crate::pose::skin::{AnimatedNode, Animation, Channel, Interpolation, Property, Skeleton};
@@ -26,12 +27,20 @@ use crate::{Error, Result};
 /// name) even when all its channels are skipped. Errors: [`Error::Io`], and [`Error::Format`]
 /// when the file has no skinned mesh or an animation is malformed (times not increasing or not
 /// finite, value counts that do not match the keys, unsupported accessor types).
+///
+/// The file is read under [`LoadOptions::default`]'s limits, as [`load_gltf`](super::load_gltf)
+/// reads it; [`load_animations_with_options`] takes other limits.
 pub fn load_animations(path: impl AsRef<Path>) -> Result<Vec<Animation>> {
+    load_animations_with_options(path, &LoadOptions::default())
+}
+
+/// [`load_animations`] under the given limits (which buffers may be read, and how large).
+pub fn load_animations_with_options(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Vec<Animation>> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let bytes = crate::io::read_regular_file(path, options.max_file_bytes, "a glTF or GLB file", super::read::TRUSTED)?;
     let format = |reason: String| Error::Format { path: path.to_path_buf(), reason };
     let (document, blob) = parse_document(&bytes).map_err(format)?;
-    let buffers = load_buffers(&document, path, blob)?;
+    let buffers = load_buffers(&document, path, blob, options)?;
     read_animations(&document, &buffers).map_err(format)
 }
 

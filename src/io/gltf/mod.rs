@@ -76,7 +76,7 @@ mod skin;
 mod write;
 mod write_mesh;
 
-pub use animation::load_animations;
+pub use animation::{load_animations, load_animations_with_options};
 pub use bytes::load_gltf_bytes;
 pub use read::{load_gltf, load_gltf_with_info, load_gltf_with_options, load_mesh, LoadOptions};
 pub use write::save_glb;

@@ -166,8 +166,11 @@ impl Pose {
                 self.translation
             )));
         }
-        if let Some((j, v)) =
-            self.joint_translations.iter().enumerate().find_map(|(j, t)| Some((j, super::skeleton::too_large(&t.to_array())?)))
+        if let Some((j, v)) = self
+            .joint_translations
+            .iter()
+            .enumerate()
+            .find_map(|(j, t)| Some((j, super::skeleton::too_large(&t.to_array())?)))
         {
             let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
             return Err(Error::InvalidSettings(format!(
