@@ -358,8 +358,10 @@ pub fn edge_grad(
                 let pieces = &segments[start..end as usize];
                 start = end as usize;
                 if let Some(g) = geometry(candidate) {
-                    *result =
-                        accumulate(&parts, g, coincident_rank(screen, topology, candidate.0), pieces, &mut scratch);
+                    // The rank matters only to a segment's occluders: an edge with none skips it.
+                    let rank =
+                        if pieces.is_empty() { u32::MAX } else { coincident_rank(screen, topology, candidate.0) };
+                    *result = accumulate(&parts, g, rank, pieces, &mut scratch);
                 }
             }
         },
