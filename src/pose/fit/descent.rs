@@ -21,6 +21,8 @@ pub struct StepReport {
     pub self_intersection_surrogate: f64,
     /// `E_prior = (1/J) Σ_j |θ_j|²` (rad²), unweighted (see [`PoseFit::set_pose_prior`]).
     pub pose_prior: f64,
+    /// The energy the step descends: `E_sl + λ·surrogate + μ·E_prior` (with the step's blur).
+    pub energy: f64,
 }
 
 /// The optimiser's state: the pose parameters and Adam's moments. [`PoseFit::state`] and
@@ -73,6 +75,25 @@ pub struct PoseFit {
     pixel_weight: f64,
     /// Weight `μ` of the pose prior.
     pose_prior: f32,
+    /// Which parameters the steps may change ([`PoseFit::set_free`]): joint offsets, global
+    /// orientation and translation.
+    free: Free,
+}
+
+/// Which groups of pose parameters a [`PoseFit`] changes; the others keep their values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Free {
+    /// The joints' rotation offsets.
+    pub joints: bool,
+    /// The global orientation and the root translation.
+    pub global: bool,
+}
+
+impl Default for Free {
+    /// Everything free.
+    fn default() -> Self {
+        Free { joints: true, global: true }
+    }
 }
 
 impl PoseFit {
@@ -143,7 +164,20 @@ impl PoseFit {
             blur: 0.0,
             pixel_weight: if pixels > 0.0 { 1.0 / pixels } else { 1.0 },
             pose_prior: 0.0,
+            free: Free::default(),
         })
+    }
+
+    /// Chooses which parameters the steps change (all by default); a frozen group keeps its
+    /// current values exactly (its gradient entries are zeroed before Adam sees them, and its
+    /// values restored after the step).
+    pub fn set_free(&mut self, free: Free) {
+        self.free = free;
+    }
+
+    /// Which parameters the steps change.
+    pub fn free(&self) -> Free {
+        self.free
     }
 
     /// The current pose.
@@ -322,12 +356,28 @@ impl PoseFit {
         let mut grads = d_pose.to_params();
         let prior = self.prior_energy();
         self.add_prior_gradient(&mut grads);
+        let joints = 3 * self.model.joint_count();
+        let frozen: &[std::ops::Range<usize>] = match (self.free.joints, self.free.global) {
+            (true, true) => &[],
+            (false, true) => &[0..joints],
+            (true, false) => &[joints..joints + 6],
+            (false, false) => &[0..joints + 6],
+        };
+        let kept: Vec<Vec<f32>> = frozen.iter().map(|r| self.params[r.clone()].to_vec()).collect();
+        for r in frozen {
+            grads[r.clone()].fill(0.0);
+        }
         self.adam.step(&mut self.params, &grads)?;
+        // Adam's moments from before a group was frozen would still move it: put it back.
+        for (r, values) in frozen.iter().zip(kept) {
+            self.params[r.clone()].copy_from_slice(&values);
+        }
         Ok(StepReport {
             silhouette,
             self_intersection: penalty,
             self_intersection_surrogate: surrogate,
             pose_prior: prior,
+            energy: silhouette + f64::from(lambda) * surrogate + f64::from(self.pose_prior) * prior,
         })
     }
 }

@@ -55,10 +55,12 @@
 
 mod cameras;
 mod descent;
+mod method;
 mod poses;
 mod schedule;
 
-pub use cameras::{framing_cameras, orbit_cameras};
-pub use descent::{FitSettings, FitState, PoseFit, StepReport};
-pub use poses::{per_vertex_error, random_pose, stride_hypotheses};
-pub use schedule::{Progress, RunReport, Schedule, Stage};
+pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
+pub use descent::{FitSettings, FitState, Free, PoseFit, StepReport};
+pub use method::{fit, FitOptions, Fitted};
+pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
+pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};
