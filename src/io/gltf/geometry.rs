@@ -18,6 +18,8 @@ pub(super) struct Geometry {
     pub(super) triangles: Vec<[u32; 3]>,
     pub(super) joints: Vec<[u16; 4]>,
     pub(super) weights: Vec<[f32; 4]>,
+    /// Morph target POSITION deltas, per target, per vertex (zeros where a target has none).
+    pub(super) targets: Vec<Vec<Vec3>>,
     pub(super) skipped_primitives: usize,
 }
 
@@ -31,6 +33,7 @@ pub(super) struct SkinMap<'a> {
 pub(super) fn read_geometry(mesh: &gltf::Mesh, buffers: &[Vec<u8>], skin: Option<&SkinMap>) -> Reason<Geometry> {
     let m = mesh.index();
     let mut geometry = Geometry::default();
+    let mut target_count = None;
     for primitive in mesh.primitives() {
         let mode = primitive.mode();
         if !is_triangle_mode(mode) {
@@ -71,6 +74,7 @@ pub(super) fn read_geometry(mesh: &gltf::Mesh, buffers: &[Vec<u8>], skin: Option
             _ => geometry.triangles.extend((0..n / 3).map(|t| [corner(3 * t), corner(3 * t + 1), corner(3 * t + 2)])),
         }
         geometry.positions.extend(positions.iter().map(|&p| Vec3::from(p)));
+        read_targets(&primitive, buffers, &at, count, &mut target_count, &mut geometry)?;
         if let Some(skin) = skin {
             read_influences(&primitive, buffers, &at, count, skin, &mut geometry)?;
         }
@@ -79,6 +83,47 @@ pub(super) fn read_geometry(mesh: &gltf::Mesh, buffers: &[Vec<u8>], skin: Option
         return Err(format!("mesh {m} has no triangles"));
     }
     Ok(geometry)
+}
+
+/// Appends one primitive's morph target POSITION deltas (zeros for a target without them). Every
+/// triangle primitive of the mesh must have the same number of targets (the glTF rule).
+fn read_targets(
+    primitive: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    at: &str,
+    count: usize,
+    target_count: &mut Option<usize>,
+    geometry: &mut Geometry,
+) -> Reason<()> {
+    let targets: Vec<_> = primitive.morph_targets().collect();
+    let expected = *target_count.get_or_insert(targets.len());
+    if targets.len() != expected {
+        return Err(format!(
+            "{at} has {} morph targets but an earlier primitive of the mesh has {expected}; all must have the same",
+            targets.len()
+        ));
+    }
+    geometry.targets.resize_with(expected, Vec::new);
+    for (k, target) in targets.iter().enumerate() {
+        let out = &mut geometry.targets[k];
+        // Earlier primitives' vertices are already in `positions`; keep the tables aligned.
+        out.resize(geometry.positions.len() - count, Vec3::ZERO);
+        match target.positions() {
+            Some(accessor) => {
+                let what = format!("{at} morph target {k} POSITION");
+                let deltas: Vec<[f32; 3]> = read_floats(&accessor, buffers, &what, Dimensions::Vec3, false)?;
+                if deltas.len() != count {
+                    return Err(format!("{what}: {} deltas for {count} vertices", deltas.len()));
+                }
+                if let Some((v, d)) = deltas.iter().enumerate().find(|(_, d)| !d.iter().all(|x| x.is_finite())) {
+                    return Err(format!("{what}: vertex {v} has a non-finite delta {d:?}"));
+                }
+                out.extend(deltas.iter().map(|&d| Vec3::from(d)));
+            }
+            None => out.resize(geometry.positions.len(), Vec3::ZERO),
+        }
+    }
+    Ok(())
 }
 
 /// Reads, checks, renormalises and remaps `JOINTS_0` / `WEIGHTS_0` of one primitive.

@@ -55,6 +55,7 @@
 mod accessor;
 mod container;
 mod geometry;
+mod morph;
 mod read;
 mod skin;
 mod write;

@@ -6,9 +6,10 @@ use glam::Mat4;
 
 use super::container::{load_buffers, parse_document};
 use super::geometry::{is_triangle_mode, read_geometry, same_influences, SkinMap};
+use super::morph::{joint_offsets, target_names};
 use super::skin::{read_skin, NodeGraph};
 use super::{LoadInfo, Model, Reason};
-use crate::pose::skin::{Pose, SkinnedMesh};
+use crate::pose::skin::{MorphTargets, Pose, SkinnedMesh};
 use crate::{Error, Mesh, Result};
 
 /// Loads the first triangle mesh of a `.gltf` (embedded or external buffers) or `.glb` file, with
@@ -87,7 +88,7 @@ fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, 
             let positions = kept.iter().map(|&i| world.transform_point3(geometry.positions[i])).collect();
             Model::Static(Mesh::new(positions, triangles).map_err(mesh_error)?)
         }
-        Some((skeleton, _)) => {
+        Some((skeleton, new_index)) => {
             let influence = |i: usize| (geometry.joints[i], geometry.weights[i]);
             info.weight_conflicts = (0..remap.len())
                 .filter(|&i| {
@@ -96,11 +97,23 @@ fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, 
                 })
                 .count();
             let positions = kept.iter().map(|&i| geometry.positions[i]).collect();
+            let names = target_names(&mesh, geometry.targets.len())?;
+            let offsets = match skin.as_ref() {
+                Some(skin) if !names.is_empty() => joint_offsets(skin, &names, &new_index)?,
+                _ => None,
+            };
+            let morphs = MorphTargets {
+                names,
+                // A welded vertex keeps the deltas of its first occurrence, like its influences.
+                deltas: geometry.targets.iter().map(|t| kept.iter().map(|&i| t[i]).collect()).collect(),
+                joint_offsets: offsets,
+            };
             Model::Skinned(SkinnedMesh {
                 mesh: Mesh::new(positions, triangles).map_err(mesh_error)?,
                 skeleton,
                 joints: kept.iter().map(|&i| geometry.joints[i]).collect(),
                 weights: kept.iter().map(|&i| geometry.weights[i]).collect(),
+                morphs,
             })
         }
     };

@@ -174,6 +174,7 @@ pub(super) fn read_skin(skin: &gltf::Skin, graph: &NodeGraph, buffers: &[Vec<u8>
     }
     let skeleton = Skeleton {
         names: order.iter().map(|&j| graph.names[nodes[j]].clone()).collect(),
+        nodes: order.iter().map(|&j| nodes[j]).collect(),
         parents: order.iter().map(|&j| parents[j].map(|p| usize::from(new_index[p]))).collect(),
         rest: order.iter().map(|&j| rest[j]).collect(),
         root_parent: order.iter().map(|&j| root_parent[j]).collect(),

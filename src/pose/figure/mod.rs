@@ -93,13 +93,14 @@ pub fn builtin_figure() -> SkinnedMesh {
         .collect();
     let skeleton = Skeleton {
         names: JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+        nodes: Vec::new(),
         parents: JOINT_PARENTS.to_vec(),
         rest,
         root_parent: vec![Mat4::IDENTITY; JOINT_COUNT],
         inverse_bind: world.iter().map(|&p| Mat4::from_translation(-p)).collect(),
     };
     let mesh = Mesh::new(positions, triangles).expect("the built-in figure is a valid mesh");
-    SkinnedMesh { mesh, skeleton, joints: joint_ids, weights }
+    SkinnedMesh { mesh, skeleton, joints: joint_ids, weights, morphs: Default::default() }
 }
 
 const JOINT_COUNT: usize = 24;

@@ -13,7 +13,12 @@ use crate::Result;
 pub fn random_pose(limits: &[f32], max_yaw: f32, seed: u64) -> Pose {
     let mut rng = SplitMix64::new(seed);
     let joint_rotations = limits.iter().map(|&limit| rng.unit_vector() * rng.range(0.0, limit)).collect();
-    Pose { joint_rotations, orientation: Vec3::new(0.0, rng.range(-max_yaw, max_yaw), 0.0), translation: Vec3::ZERO }
+    Pose {
+        joint_rotations,
+        joint_translations: Vec::new(),
+        orientation: Vec3::new(0.0, rng.range(-max_yaw, max_yaw), 0.0),
+        translation: Vec3::ZERO,
+    }
 }
 
 /// Mean distance between corresponding vertices (paper Eq. 21), in the mesh's units.

@@ -14,13 +14,16 @@
 //! where `P_root` is the world transform of the root joint's non-joint ancestors (glTF: the
 //! transform of the node holding the skinned mesh is ignored, per the spec).
 
+mod backward;
 mod lbs;
+mod morph;
 mod pose;
 mod rodrigues;
 mod skeleton;
 mod skinned;
 
 pub use lbs::SkinCache;
+pub use morph::MorphTargets;
 pub use pose::Pose;
 pub use rodrigues::{rodrigues, rodrigues_derivative, rodrigues_derivative_f64, rodrigues_f64};
 pub use skeleton::{JointRest, Skeleton};

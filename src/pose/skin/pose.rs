@@ -1,5 +1,5 @@
-//! Pose parameters: per-joint rotation offsets, a global orientation and a root translation, and
-//! their flat vector form.
+//! Pose parameters: per-joint rotation offsets, optional per-joint translation offsets, a global
+//! orientation and a root translation, and their flat vector form.
 
 use glam::Vec3;
 
@@ -10,6 +10,10 @@ use crate::{Error, Result};
 pub struct Pose {
     /// Axis–angle rotation offset per joint (radians), applied after the rest rotation.
     pub joint_rotations: Vec<Vec3>,
+    /// Translation offset per joint, added to the joint's rest translation (in its parent's
+    /// frame, world units), as glTF animations move joints; **empty** means all zero (the usual
+    /// case: bones keep their lengths). Either empty or one per joint.
+    pub joint_translations: Vec<Vec3>,
     /// Global orientation, axis–angle (radians), about the world origin.
     pub orientation: Vec3,
     /// Root translation, world units.
@@ -18,14 +22,46 @@ pub struct Pose {
 
 impl Pose {
     /// The rest pose of a skeleton with `joint_count` joints: all offsets, the orientation and the
-    /// translation zero.
+    /// translation zero, no joint translations.
     pub fn rest(joint_count: usize) -> Pose {
-        Pose { joint_rotations: vec![Vec3::ZERO; joint_count], orientation: Vec3::ZERO, translation: Vec3::ZERO }
+        Pose {
+            joint_rotations: vec![Vec3::ZERO; joint_count],
+            joint_translations: Vec::new(),
+            orientation: Vec3::ZERO,
+            translation: Vec3::ZERO,
+        }
     }
 
-    /// Number of scalar parameters of a pose for `joint_count` joints: `3·joint_count + 6`.
+    /// This pose with explicit joint translations (zeros when it had none), so that
+    /// [`Pose::to_params`] and the gradients of
+    /// [`SkinnedMesh::backward`](super::SkinnedMesh::backward) include them.
+    pub fn with_joint_translations(mut self) -> Pose {
+        if self.joint_translations.is_empty() {
+            self.joint_translations = vec![Vec3::ZERO; self.joint_count()];
+        }
+        self
+    }
+
+    /// Whether the pose carries joint translations (see [`Pose::joint_translations`]).
+    pub fn has_joint_translations(&self) -> bool {
+        !self.joint_translations.is_empty()
+    }
+
+    /// The translation offset of joint `j` (zero when the pose has none).
+    pub fn joint_translation(&self, j: usize) -> Vec3 {
+        self.joint_translations.get(j).copied().unwrap_or(Vec3::ZERO)
+    }
+
+    /// Number of scalar parameters of a pose for `joint_count` joints without joint translations:
+    /// `3·joint_count + 6`.
     pub fn parameter_count(joint_count: usize) -> usize {
         3 * joint_count + 6
+    }
+
+    /// Number of scalar parameters of a pose for `joint_count` joints with joint translations:
+    /// `6·joint_count + 6`.
+    pub fn parameter_count_with_translations(joint_count: usize) -> usize {
+        6 * joint_count + 6
     }
 
     /// Number of joints this pose is for.
@@ -39,24 +75,32 @@ impl Pose {
     /// [θ_0.x, θ_0.y, θ_0.z, θ_1.x, …, θ_{J−1}.z, orientation.x, .y, .z, translation.x, .y, .z]
     /// ```
     ///
-    /// `3·J + 6` values. A gradient returned as a [`Pose`] flattens the same way.
+    /// `3·J + 6` values, followed, only when the pose has joint translations, by
+    /// `[τ_0.x, τ_0.y, τ_0.z, …, τ_{J−1}.z]` (`6·J + 6` in all). The first `3·J + 6` values mean
+    /// the same with or without them. A gradient returned as a [`Pose`] flattens the same way
+    /// (it carries joint translations exactly when the pose it was taken at does).
     pub fn to_params(&self) -> Vec<f32> {
-        let mut params = Vec::with_capacity(Pose::parameter_count(self.joint_count()));
+        let mut params = Vec::with_capacity(Pose::parameter_count_with_translations(self.joint_count()));
         for r in &self.joint_rotations {
             params.extend_from_slice(&r.to_array());
         }
         params.extend_from_slice(&self.orientation.to_array());
         params.extend_from_slice(&self.translation.to_array());
+        for t in &self.joint_translations {
+            params.extend_from_slice(&t.to_array());
+        }
         params
     }
 
-    /// The inverse of [`Pose::to_params`]. Errors when `params` does not hold `3·joint_count + 6`
-    /// values or holds a non-finite one.
+    /// The inverse of [`Pose::to_params`]: `3·joint_count + 6` values give a pose without joint
+    /// translations, `6·joint_count + 6` one with. Errors for any other length or a non-finite
+    /// value.
     pub fn from_params(params: &[f32], joint_count: usize) -> Result<Pose> {
         let expected = Pose::parameter_count(joint_count);
-        if params.len() != expected {
+        let with_translations = Pose::parameter_count_with_translations(joint_count);
+        if params.len() != expected && params.len() != with_translations {
             return Err(Error::LengthMismatch {
-                what: "pose parameters (3 per joint + 6)",
+                what: "pose parameters (3 per joint + 6, or 6 per joint + 6 with joint translations)",
                 expected,
                 got: params.len(),
             });
@@ -70,12 +114,18 @@ impl Pose {
         let v = |i: usize| Vec3::new(params[i], params[i + 1], params[i + 2]);
         Ok(Pose {
             joint_rotations: (0..joint_count).map(|j| v(3 * j)).collect(),
+            joint_translations: if params.len() == with_translations {
+                (0..joint_count).map(|j| v(3 * joint_count + 6 + 3 * j)).collect()
+            } else {
+                Vec::new()
+            },
             orientation: v(3 * joint_count),
             translation: v(3 * joint_count + 3),
         })
     }
 
-    /// Checks that the pose has one rotation per joint and only finite values.
+    /// Checks that the pose has one rotation per joint, no or one translation per joint, and only
+    /// finite values.
     pub fn validate(&self, joint_count: usize) -> Result<()> {
         if self.joint_rotations.len() != joint_count {
             return Err(Error::LengthMismatch {
@@ -88,6 +138,19 @@ impl Pose {
             return Err(Error::InvalidSettings(format!(
                 "pose: the rotation of joint {j} is {:?}; every pose parameter must be a finite number",
                 self.joint_rotations[j]
+            )));
+        }
+        if !self.joint_translations.is_empty() && self.joint_translations.len() != joint_count {
+            return Err(Error::LengthMismatch {
+                what: "pose joint translations (none, or one per skeleton joint)",
+                expected: joint_count,
+                got: self.joint_translations.len(),
+            });
+        }
+        if let Some(j) = self.joint_translations.iter().position(|t| !t.is_finite()) {
+            return Err(Error::InvalidSettings(format!(
+                "pose: the translation of joint {j} is {:?}; every pose parameter must be a finite number",
+                self.joint_translations[j]
             )));
         }
         if !self.orientation.is_finite() {

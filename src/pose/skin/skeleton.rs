@@ -21,8 +21,11 @@ pub struct JointRest {
 /// A joint hierarchy with its rest pose and inverse bind matrices.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Skeleton {
-    /// Joint names (may be empty strings).
+    /// Joint names (may be empty strings; glTF: the joint node's name).
     pub names: Vec<String>,
+    /// The glTF node index of each joint, or empty when the skeleton does not come from a file
+    /// (then any length other than 0 or one per joint is an error).
+    pub nodes: Vec<usize>,
     /// Parent of each joint, `None` for a root. Parents come before their children.
     pub parents: Vec<Option<usize>>,
     /// Rest transform of each joint relative to its parent.
@@ -86,6 +89,13 @@ impl Skeleton {
                 return Err(Error::LengthMismatch { what, expected: n, got });
             }
         }
+        if !self.nodes.is_empty() && self.nodes.len() != n {
+            return Err(Error::LengthMismatch {
+                what: "skeleton joint node indices (none, or one per joint)",
+                expected: n,
+                got: self.nodes.len(),
+            });
+        }
         for (j, parent) in self.parents.iter().enumerate() {
             if let Some(p) = *parent {
                 if p >= j {
@@ -131,7 +141,7 @@ impl Skeleton {
     /// translation). Their inverses are the inverse bind matrices under the glTF convention.
     pub fn rest_world_transforms(&self) -> Result<Vec<Mat4>> {
         self.validate()?;
-        let joints = JointState::new(self, &Pose::rest(self.joint_count()));
+        let joints = JointState::new(self, &Pose::rest(self.joint_count()), &[]);
         Ok(joints.global.iter().map(DMat4::as_mat4).collect())
     }
 
@@ -143,7 +153,7 @@ impl Skeleton {
             self.inverse_bind = vec![Mat4::IDENTITY; self.joint_count()];
         }
         self.validate()?;
-        let joints = JointState::new(self, &Pose::rest(self.joint_count()));
+        let joints = JointState::new(self, &Pose::rest(self.joint_count()), &[]);
         let invertible = |g: &DMat4| g.determinant().abs() > f64::MIN_POSITIVE;
         let inverse: Vec<Mat4> = joints.global.iter().map(|g| g.inverse().as_mat4()).collect();
         let singular = joints.global.iter().zip(&inverse).position(|(g, m)| !invertible(g) || !m.is_finite());

@@ -1,7 +1,7 @@
 //! The skinned mesh: a bind-pose mesh bound to a skeleton by up to four weighted joints per
 //! vertex, and the checks of those bindings.
 
-use super::{Pose, Skeleton};
+use super::{MorphTargets, Pose, Skeleton};
 use crate::{Error, Mesh, Result};
 
 /// A mesh bound to a skeleton: bind-pose vertices, up to four joint influences per vertex.
@@ -15,6 +15,8 @@ pub struct SkinnedMesh {
     pub joints: Vec<[u16; 4]>,
     /// Weights of each vertex's influences (sum to 1).
     pub weights: Vec<[f32; 4]>,
+    /// Morph targets (shape space; empty when the mesh has none).
+    pub morphs: MorphTargets,
 }
 
 /// How far a vertex's weights may sum from 1 before [`SkinnedMesh::new`] rejects them.
@@ -27,7 +29,7 @@ impl SkinnedMesh {
     /// are renormalised to sum to 1 exactly (to f32 precision).
     pub fn new(mesh: Mesh, skeleton: Skeleton, joints: Vec<[u16; 4]>, weights: Vec<[f32; 4]>) -> Result<SkinnedMesh> {
         skeleton.validate()?;
-        let mut skinned = SkinnedMesh { mesh, skeleton, joints, weights };
+        let mut skinned = SkinnedMesh { mesh, skeleton, joints, weights, morphs: MorphTargets::default() };
         skinned.check_bindings()?;
         for (i, w) in skinned.weights.iter_mut().enumerate() {
             if let Some(k) = w.iter().position(|x| !x.is_finite() || *x < 0.0) {
@@ -48,6 +50,19 @@ impl SkinnedMesh {
             }
         }
         Ok(skinned)
+    }
+
+    /// This mesh with morph targets (replacing any it had), after checking them against the mesh
+    /// and the skeleton ([`MorphTargets::validate`]).
+    pub fn with_morph_targets(mut self, morphs: MorphTargets) -> Result<SkinnedMesh> {
+        morphs.validate(self.vertex_count(), self.joint_count())?;
+        self.morphs = morphs;
+        Ok(self)
+    }
+
+    /// Number of shape coefficients `β` (morph targets).
+    pub fn shape_count(&self) -> usize {
+        self.morphs.count()
     }
 
     /// Number of joints of the skeleton.
@@ -92,6 +107,12 @@ impl SkinnedMesh {
             }
         }
         Ok(())
+    }
+
+    /// Validates the morph tables (the fields are public) and the shape coefficients.
+    pub(super) fn check_shape(&self, betas: &[f32]) -> Result<()> {
+        self.morphs.validate(self.vertex_count(), self.joint_count())?;
+        self.morphs.check_betas(betas)
     }
 
     /// Validates the skeleton, the bindings (the fields are public) and the pose.

@@ -190,6 +190,7 @@ fn chain() -> SkinnedMesh {
     let rest = vec![JointRest::IDENTITY, JointRest { translation: Vec3::Y, ..JointRest::IDENTITY }];
     let mut skeleton = Skeleton {
         names: vec!["a".into(), "b".into()],
+        nodes: Vec::new(),
         parents: vec![None, Some(0)],
         rest,
         root_parent: vec![glam::Mat4::IDENTITY; 2],

@@ -162,6 +162,8 @@ fn two_joint_box() -> SkinnedMesh {
         positions.iter().map(|p| if p.z > 1.0 { [0.75, 0.25, 0.0, 0.0] } else { [1.0, 0.0, 0.0, 0.0] }).collect();
     let mut skeleton = Skeleton {
         names: vec!["hip \"root\"".into(), "spine".into()],
+        // save_glb writes joint j as node 1 + j.
+        nodes: vec![1, 2],
         parents: vec![None, Some(0)],
         rest: vec![
             JointRest { translation: Vec3::new(0.1, 0.2, 0.3), rotation: Quat::from_rotation_y(0.3), scale: Vec3::ONE },
@@ -178,7 +180,13 @@ fn two_joint_box() -> SkinnedMesh {
         inverse_bind: vec![],
     };
     skeleton.inverse_bind = rest_world(&skeleton).iter().map(|m| m.inverse().as_mat4()).collect();
-    SkinnedMesh { mesh: Mesh::new(positions, triangles).unwrap(), skeleton, joints, weights }
+    SkinnedMesh {
+        mesh: Mesh::new(positions, triangles).unwrap(),
+        skeleton,
+        joints,
+        weights,
+        morphs: Default::default(),
+    }
 }
 
 fn skinned(model: Model) -> SkinnedMesh {

@@ -118,7 +118,14 @@ fn bad_skeletons_are_errors() {
     sk.root_parent[1].w_axis.x = f32::NAN;
     assert!(sk.validate().is_ok());
 
-    let empty = Skeleton { names: vec![], parents: vec![], rest: vec![], root_parent: vec![], inverse_bind: vec![] };
+    let empty = Skeleton {
+        names: vec![],
+        nodes: vec![],
+        parents: vec![],
+        rest: vec![],
+        root_parent: vec![],
+        inverse_bind: vec![],
+    };
     invalid_settings(empty.validate(), "no joints");
     let mut degenerate = sm.skeleton.clone();
     degenerate.rest[0].scale = Vec3::new(1.0, 0.0, 1.0);

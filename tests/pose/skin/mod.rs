@@ -106,6 +106,7 @@ fn synthetic(parents: &[Option<usize>], vertex_count: usize, glb_ibm: bool, seed
         .collect();
     let mut skeleton = Skeleton {
         names: (0..n).map(|j| format!("joint{j}")).collect(),
+        nodes: Vec::new(),
         parents: parents.to_vec(),
         rest,
         root_parent,
@@ -147,6 +148,7 @@ fn synthetic(parents: &[Option<usize>], vertex_count: usize, glb_ibm: bool, seed
 fn random_pose(rng: &mut SplitMix64, joint_count: usize, max_angle: f64) -> Pose {
     Pose {
         joint_rotations: (0..joint_count).map(|_| rng.axis_angle(max_angle)).collect(),
+        joint_translations: Vec::new(),
         orientation: rng.axis_angle(max_angle),
         translation: rng.vec3(-1.0, 1.0),
     }
@@ -228,3 +230,4 @@ mod errors;
 mod forward;
 mod models;
 mod rodrigues;
+mod shape;
