@@ -68,8 +68,9 @@ struct Options {
     /// Skinned .gltf/.glb [default: the built-in figure]
     #[arg(long, value_name = "PATH")]
     model: Option<PathBuf>,
-    /// The ring of cameras around the model
-    #[arg(long, value_name = "LAYOUT", value_enum, default_value_t = Layout::Level)]
+    /// The ring of cameras around the model (raised: seeds 31–80 of the built-in figure end
+    /// with no fit above 2% of the height, level: one at 57 mm)
+    #[arg(long, value_name = "LAYOUT", value_enum, default_value_t = Layout::Raised)]
     views: Layout,
     /// Number of cameras on the ring, azimuths evenly spaced, at least 1
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
@@ -113,6 +114,10 @@ struct Options {
     /// Keep the global orientation and translation at the start's (the rest pose's)
     #[arg(long)]
     no_global: bool,
+    /// Random shape too: β_k uniform in ±0.3 per morph target as ground truth, fitted jointly
+    /// with the pose (needs a model with morph targets)
+    #[arg(long)]
+    shape: bool,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -132,6 +137,17 @@ struct Options {
     /// Run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
     #[arg(long, value_name = "N")]
     ablation: Option<u32>,
+    /// Ground truths from a glTF animation of `--model` (its name or index) instead of random
+    /// poses: one fit per frame, evaluated like `--seeds`
+    #[arg(long, value_name = "CLIP")]
+    motion: Option<String>,
+    /// Frames of `--motion`: every k-th key of the clip's most detailed channel, k chosen to give
+    /// this many
+    #[arg(long, value_name = "N", default_value_t = 12)]
+    frames: usize,
+    /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
+    #[arg(skip)]
+    truth: Option<Pose>,
 }
 
 /// `A-B` (inclusive, A ≤ B) or a single seed.
@@ -186,6 +202,7 @@ fn fit_options(o: &Options) -> FitOptions {
         arm_swing: o.arm_swing,
         convergence: if o.no_early_stop { None } else { Some(Convergence::default()) },
         fit_global: !o.no_global,
+        fit_shape: o.shape,
         ..defaults
     }
 }
@@ -209,8 +226,17 @@ fn fit_seed(
     quiet: bool,
 ) -> Result<Outcome, Box<dyn std::error::Error>> {
     let limits = random_pose_limits(&model.skeleton);
-    let truth = random_pose(&limits, 30f32.to_radians(), o.seed);
-    let truth_vertices = model.skin(&truth)?;
+    let truth = o.truth.clone().unwrap_or_else(|| random_pose(&limits, 30f32.to_radians(), o.seed));
+    let betas: Vec<f32> = if o.shape {
+        if model.shape_count() == 0 {
+            return Err("--shape needs a model with morph targets".into());
+        }
+        let mut rng = diffsil::random::SplitMix64::new(o.seed ^ 0x5EED_5A9E);
+        (0..model.shape_count()).map(|_| rng.range(-0.3, 0.3)).collect()
+    } else {
+        Vec::new()
+    };
+    let truth_vertices = model.skin_shaped(&truth, &betas)?;
     // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).
     let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
     let elevation = match o.views {
@@ -308,10 +334,16 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     v[rank - 1]
 }
 
-/// Fits seeds `first..=last` and prints each error and the summary.
-fn evaluate(model: &SkinnedMesh, name: &str, o: &Options, (first, last): (u64, u64)) -> Result<(), Box<dyn std::error::Error>> {
+/// Fits every case (a label and its options) and prints each error and the summary.
+fn evaluate(
+    model: &SkinnedMesh,
+    name: &str,
+    o: &Options,
+    what: &str,
+    cases: Vec<(String, Options)>,
+) -> Result<(), Box<dyn std::error::Error>> {
     println!(
-        "{name}: seeds {first}–{last}, {} {:?} views at {}², F = {}, masks {:?}, {}",
+        "{name}: {what}, {} {:?} views at {}², F = {}, masks {:?}, {}",
         o.view_count,
         o.views,
         o.resolution,
@@ -322,10 +354,10 @@ fn evaluate(model: &SkinnedMesh, name: &str, o: &Options, (first, last): (u64, u
     let (mut errors, mut seconds, mut steps) = (Vec::new(), 0.0, 0u64);
     let mut height = 0.0;
     let cpu_before = cpu_seconds();
-    for seed in first..=last {
-        let outcome = fit_seed(model, &Options { seed, ..o.clone() }, false, true)?;
+    for (label, case) in cases {
+        let outcome = fit_seed(model, &case, false, true)?;
         println!(
-            "seed {seed}: {:.1} mm, {} steps ({:?}), {:.2} s",
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s",
             outcome.error_m * 1000.0,
             outcome.steps,
             outcome.stop,
@@ -396,6 +428,29 @@ fn ablation(model: &SkinnedMesh, name: &str, o: &Options, seeds: u32) -> Result<
     Ok(())
 }
 
+/// The `--frames` poses of `--motion` and their times: every k-th key time of the clip's channel
+/// with the most keys.
+fn motion_frames(o: &Options, clip: &str) -> Result<Vec<(f32, Pose)>, Box<dyn std::error::Error>> {
+    let path = o.model.as_ref().ok_or("--motion needs --model (a glTF with animations)")?;
+    let (model, _) = load_model(o)?;
+    let clips = diffsil::io::gltf::load_animations(path)?;
+    let animation = clips
+        .iter()
+        .find(|a| a.name == clip)
+        .or_else(|| clip.parse::<usize>().ok().and_then(|k| clips.get(k)))
+        .ok_or_else(|| {
+            let names: Vec<&str> = clips.iter().map(|a| a.name.as_str()).collect();
+            format!("{}: no clip {clip:?} (clips: {names:?}, or an index)", path.display())
+        })?;
+    let times = &animation.channels.iter().max_by_key(|c| c.times.len()).ok_or("the clip has no channels")?.times;
+    let step = (times.len() / o.frames.max(1)).max(1);
+    let mut frames = Vec::new();
+    for &time in times.iter().step_by(step).take(o.frames) {
+        frames.push((time, animation.sample(&model.skeleton, time)?));
+    }
+    Ok(frames)
+}
+
 fn main() {
     let o = Options::parse();
     if let Err(e) = run(&o) {
@@ -409,8 +464,19 @@ fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
     if let Some(seeds) = o.ablation {
         return ablation(&model, &name, o, seeds);
     }
-    if let Some(range) = o.seeds {
-        return evaluate(&model, &name, o, range);
+    if let Some(clip) = &o.motion {
+        let poses = motion_frames(o, clip)?;
+        let what = format!("clip {clip}, {} frames", poses.len());
+        let cases = poses
+            .into_iter()
+            .enumerate()
+            .map(|(k, (time, pose))| (format!("frame {k} (t = {time:.3} s)"), Options { seed: k as u64, truth: Some(pose), ..o.clone() }))
+            .collect();
+        return evaluate(&model, &name, o, &what, cases);
+    }
+    if let Some((first, last)) = o.seeds {
+        let cases = (first..=last).map(|seed| (format!("seed {seed}"), Options { seed, ..o.clone() })).collect();
+        return evaluate(&model, &name, o, &format!("seeds {first}–{last}"), cases);
     }
     println!(
         "{name}: {} vertices, {} triangles, {} joints; {} {:?} views at {}², F = {}, seed {}",

@@ -37,6 +37,14 @@ pub struct FitOptions {
     pub fit_pose: bool,
     /// Fit the global orientation and the root translation. Default true.
     pub fit_global: bool,
+    /// Fit the shape coefficients `β` (models with morph targets). Default false: a pose-only
+    /// fit keeps the initial shape.
+    pub fit_shape: bool,
+    /// Shape prior weight `ν`, ≥ 0 ([`PoseFit::set_shape_prior`]). Default
+    /// [`PoseFit::SHAPE_PRIOR`].
+    pub shape_prior: f32,
+    /// The shape to start from, one `β` per morph target; empty for all zero. Default empty.
+    pub initial_shape: Vec<f32>,
     /// The pose to start from (and to keep where a part is not fitted); `None`: the rest pose.
     /// Default `None`.
     pub initial: Option<Pose>,
@@ -55,6 +63,9 @@ impl Default for FitOptions {
             convergence: Some(Convergence::default()),
             fit_pose: true,
             fit_global: true,
+            fit_shape: false,
+            shape_prior: PoseFit::SHAPE_PRIOR,
+            initial_shape: Vec::new(),
             initial: None,
         }
     }
@@ -114,8 +125,8 @@ pub struct Fitted {
     pub report: RunReport,
 }
 
-/// Fits `model`'s pose to the `targets` (one silhouette per camera, values in [0, 1]) by the
-/// recommended method: `E = E_sl + λ·E_spt + μ·E_prior` minimised with Adam, coarse to fine,
+/// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
+/// recommended method: `E = E_sl + λ·E_spt + μ·E_prior + ν·E_shape` minimised with Adam, coarse to fine,
 /// from several starting poses, each part switchable and every setting in `options`
 /// (`FitOptions::default()` is the method's). `on_step` sees the fit and its [`Progress`] after
 /// every step; returning [`ControlFlow::Break`] cancels the fit (e.g. from an `AtomicBool` a
@@ -149,11 +160,16 @@ pub fn fit(
         return Err(Error::InvalidSettings(format!("need a non-negative pose prior, got {}", options.pose_prior)));
     }
     let (schedule, hypotheses) = options.plan(&model)?;
-    let settings =
-        FitSettings { initial: hypotheses.first().cloned(), learning_rate: options.learning_rate, lambda: options.lambda };
+    let settings = FitSettings {
+        initial: hypotheses.first().cloned(),
+        learning_rate: options.learning_rate,
+        lambda: options.lambda,
+        initial_shape: options.initial_shape.clone(),
+    };
     let mut fit = PoseFit::new(model, cameras, targets, renderer, settings)?;
     fit.set_pose_prior(options.pose_prior)?;
-    fit.set_free(Free { joints: options.fit_pose, global: options.fit_global });
+    fit.set_shape_prior(options.shape_prior)?;
+    fit.set_free(Free { joints: options.fit_pose, global: options.fit_global, shape: options.fit_shape });
     let report = fit.run(&schedule, &hypotheses, on_step)?;
     Ok(Fitted { fit, report })
 }

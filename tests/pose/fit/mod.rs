@@ -92,7 +92,7 @@ fn truth_in_two_views() -> (SkinnedMesh, Pose, Vec<Camera>, Vec<Image>, Renderer
 
 /// Settings starting at `initial`, without the self-intersection term.
 fn settings(initial: &Pose, learning_rate: f32) -> FitSettings {
-    FitSettings { initial: Some(initial.clone()), learning_rate, lambda: 0.0 }
+    FitSettings { initial: Some(initial.clone()), learning_rate, lambda: 0.0, ..FitSettings::default() }
 }
 
 #[test]
