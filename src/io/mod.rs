@@ -12,10 +12,12 @@ use crate::Error;
 #[cfg(feature = "pose")]
 pub mod gltf;
 mod obj;
+mod obj_write;
 mod png;
 mod weld;
 
 pub use obj::load_obj;
+pub use obj_write::save_obj;
 pub use png::{load_png_target, save_png, TargetMode};
 pub use weld::weld_by_position;
 #[cfg(feature = "pose")]

@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod body;
 mod figure;
 mod fit;
 mod gltf_io;

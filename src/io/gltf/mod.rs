@@ -1,5 +1,5 @@
-//! glTF 2.0 meshes: loading static and skinned meshes from `.gltf` / `.glb`, and writing skinned
-//! meshes as `.glb`.
+//! glTF 2.0 meshes: loading static and skinned meshes (with morph targets) and skeletal animations
+//! from `.gltf` / `.glb`, and writing skinned and posed meshes as `.glb`.
 //!
 //! # What [`load_gltf`] reads
 //!
@@ -9,7 +9,16 @@
 //!   [`LoadInfo::skipped_primitives`]). Attributes read: `POSITION` (float), indices (unsigned
 //!   byte, short or int; none = sequential), and for a skinned mesh `JOINTS_0` (unsigned byte or
 //!   short) and `WEIGHTS_0` (float, or normalized unsigned byte or short). Normals, texture
-//!   coordinates, materials, images, morph targets and animations are ignored.
+//!   coordinates, materials and images are ignored; animations are read by [`load_animations`].
+//! - **Morph targets** (skinned meshes only; a static mesh is read without them): each target's
+//!   `POSITION` deltas (float; a target without them is all zero), every triangle primitive
+//!   having the same number of targets. Names come from `mesh.extras.targetNames` (`target_k`
+//!   when absent). Per-joint offsets that make the joints follow the shape come from
+//!   `skins[k].extras.morphJointOffsets` (an object mapping a target name to one `[x, y, z]`
+//!   world displacement per skin joint, in the skin's joint order, per unit weight), when the
+//!   file has it; otherwise the joints stay put when the shape changes. The mesh's default
+//!   `weights` are not applied: `β = 0` is the base mesh as stored. See
+//!   [`MorphTargets`](crate::pose::skin::MorphTargets).
 //! - **The node**: the first node (in file order) that instantiates that mesh. If it has a skin the
 //!   result is [`Model::Skinned`], otherwise [`Model::Static`].
 //! - **Static meshes** get the node's world transform (its own and its ancestors') applied to the
@@ -36,7 +45,10 @@
 //!   vertices with exactly equal positions are merged, keeping the order of first occurrences
 //!   (like [`crate::io::weld_by_position`]). A merged vertex keeps the skin influences of its first
 //!   occurrence; duplicates whose influences differ from it by more than 1e-4 (per joint) are
-//!   counted in [`LoadInfo::weight_conflicts`].
+//!   counted in [`LoadInfo::weight_conflicts`]. A merged vertex also keeps the morph deltas of its
+//!   first occurrence.
+//! - **Joint identity**: each joint keeps its node's name ([`Skeleton::names`]) and node index
+//!   ([`Skeleton::nodes`]).
 //!
 //! # Errors
 //!
@@ -49,20 +61,29 @@
 //!
 //! # Writing
 //!
-//! [`save_glb`] writes a [`SkinnedMesh`] as a self-contained GLB 2.0 that [`load_gltf`] (and other
-//! glTF tools) read back to the same data.
+//! [`save_glb`] writes a [`SkinnedMesh`] (without its morph targets) as a self-contained GLB 2.0
+//! that [`load_gltf`] (and other glTF tools) read back to the same data; [`save_mesh_glb`] writes a
+//! static mesh, such as a posed, shaped body.
 
 mod accessor;
+mod animation;
+mod bytes;
 mod container;
 mod geometry;
 mod morph;
 mod read;
 mod skin;
 mod write;
+mod write_mesh;
 
+pub use animation::load_animations;
+pub use bytes::load_gltf_bytes;
 pub use read::{load_gltf, load_gltf_with_info, load_mesh};
 pub use write::save_glb;
+pub use write_mesh::save_mesh_glb;
 
+#[cfg(doc)]
+use crate::pose::skin::Skeleton;
 use crate::pose::skin::SkinnedMesh;
 use crate::Mesh;
 
@@ -70,6 +91,8 @@ use crate::Mesh;
 type Reason<T> = std::result::Result<T, String>;
 
 /// What [`load_gltf`] found in a glTF file.
+// One value per loaded file: boxing the skinned variant would only make matching on it clumsier.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Model {
     /// A mesh whose node has no skin, in world space (the node's world transform is applied).

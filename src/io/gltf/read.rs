@@ -51,7 +51,7 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
     }
 }
 
-fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, LoadInfo)> {
+pub(super) fn read_model(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<(Model, LoadInfo)> {
     let mesh =
         document.meshes().find(|m| m.primitives().any(|p| is_triangle_mode(p.mode()))).ok_or_else(|| match document
             .meshes()

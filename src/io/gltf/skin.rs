@@ -93,7 +93,7 @@ pub(super) fn unit_quaternion(xyzw: [f32; 4]) -> Option<Quat> {
 }
 
 /// A matrix as translation / rotation / scale, if it has no shear.
-fn decompose(m: Mat4) -> Option<JointRest> {
+pub(super) fn decompose(m: Mat4) -> Option<JointRest> {
     let (scale, rotation, translation) = m.to_scale_rotation_translation();
     let back = Mat4::from_scale_rotation_translation(scale, rotation, translation);
     let magnitude = m.to_cols_array().iter().fold(1.0f32, |a, x| a.max(x.abs()));

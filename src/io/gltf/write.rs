@@ -203,6 +203,11 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
         ("buffers", json::array([json::object(&[("byteLength", bin.len().to_string())])])),
     ]);
 
+    glb_container(document, bin)
+}
+
+/// The GLB container around a JSON document and its binary chunk.
+pub(super) fn glb_container(document: String, mut bin: Vec<u8>) -> Reason<Vec<u8>> {
     let mut json_chunk = document.into_bytes();
     json_chunk.resize(json_chunk.len().next_multiple_of(4), b' ');
     bin.resize(bin.len().next_multiple_of(4), 0);
@@ -221,25 +226,25 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
 }
 
 /// Little-endian bytes of floats.
-fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+pub(super) fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
     values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
 /// Just enough JSON writing for the GLB [`save_glb`](super::save_glb) writes (no serde_json dependency).
-mod json {
+pub(super) mod json {
     /// `{"key":value,...}`; values are already JSON.
-    pub(super) fn object(fields: &[(&str, String)]) -> String {
+    pub(in crate::io::gltf) fn object(fields: &[(&str, String)]) -> String {
         let body: Vec<String> = fields.iter().map(|(key, value)| format!("{}:{value}", string(key))).collect();
         format!("{{{}}}", body.join(","))
     }
 
     /// `[item,...]`; items are already JSON.
-    pub(super) fn array(items: impl IntoIterator<Item = String>) -> String {
+    pub(in crate::io::gltf) fn array(items: impl IntoIterator<Item = String>) -> String {
         format!("[{}]", items.into_iter().collect::<Vec<_>>().join(","))
     }
 
     /// A JSON string literal.
-    pub(super) fn string(text: &str) -> String {
+    pub(in crate::io::gltf) fn string(text: &str) -> String {
         let mut out = String::with_capacity(text.len() + 2);
         out.push('"');
         for c in text.chars() {
@@ -259,7 +264,7 @@ mod json {
 
     /// Finite floats as a JSON array. Rust prints the shortest decimal that reads back to the
     /// same `f32`, never in exponent form.
-    pub(super) fn floats(values: &[f32]) -> String {
+    pub(in crate::io::gltf) fn floats(values: &[f32]) -> String {
         debug_assert!(values.iter().all(|x| x.is_finite()));
         array(values.iter().map(|x| format!("{x}")))
     }

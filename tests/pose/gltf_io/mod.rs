@@ -330,6 +330,9 @@ fn static_doc(doc: &mut Doc) -> String {
     )
 }
 
+mod animations;
 mod assets;
 mod malformed;
+mod morphs;
 mod round_trips;
+mod writers;
