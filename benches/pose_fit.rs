@@ -52,7 +52,8 @@ fn pose_fit(c: &mut Criterion) {
 /// One step of the fit of the MakeHuman body (7k vertices, 31 joints) in the same setting, when
 /// `DIFFSIL_ASSETS` names the folder holding `makehuman-body-7k.glb` (skipped otherwise).
 fn body_fit(c: &mut Criterion) {
-    let Some(path) = std::env::var_os("DIFFSIL_ASSETS").map(|d| std::path::PathBuf::from(d).join("makehuman-body-7k.glb"))
+    let Some(path) =
+        std::env::var_os("DIFFSIL_ASSETS").map(|d| std::path::PathBuf::from(d).join("makehuman-body-7k.glb"))
     else {
         eprintln!("pose_fit: DIFFSIL_ASSETS unset, skipping the MakeHuman body");
         return;
@@ -66,8 +67,11 @@ fn body_fit(c: &mut Criterion) {
     let rest = model.posed_mesh(&diffsil::pose::skin::Pose::rest(model.joint_count())).expect("the body skins");
     let cameras = framing_cameras(&rest, VIEWS, RESOLUTION);
     let mut renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
-    let targets =
-        renderer.render(&model.posed_mesh(&truth).expect("the body skins"), &cameras).expect("targets render").images().to_vec();
+    let targets = renderer
+        .render(&model.posed_mesh(&truth).expect("the body skins"), &cameras)
+        .expect("targets render")
+        .images()
+        .to_vec();
     let mut fit = PoseFit::new(model, cameras, targets, renderer, FitSettings::default()).expect("valid fit");
     fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
     let mut group = c.benchmark_group("pose_fit/makehuman-body-7k");

@@ -30,8 +30,7 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, PoseFit, Stop,
-    RAISED_ELEVATION_DEG,
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, PoseFit, Stop, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Mesh, RenderSettings, Renderer};
@@ -134,6 +133,10 @@ struct Options {
     /// Where the PNGs go
     #[arg(long, value_name = "DIR", default_value = "fit_pose_out")]
     out: PathBuf,
+    /// Also write the fitted posed mesh (`fitted.glb`, `fitted.obj`) and the fitted pose and
+    /// shape (`fitted_pose.json`) to `--out`
+    #[arg(long)]
+    save: bool,
     /// Run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
     #[arg(long, value_name = "N")]
     ablation: Option<u32>,
@@ -308,6 +311,13 @@ fn fit_seed(
             targets.len(),
             o.out.display()
         );
+        if o.save {
+            let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
+            diffsil::io::gltf::save_mesh_glb(&posed, o.out.join("fitted.glb"))?;
+            diffsil::io::save_obj(o.out.join("fitted.obj"), &posed)?;
+            std::fs::write(o.out.join("fitted_pose.json"), fit.pose().to_json(fit.shape()))?;
+            println!("wrote fitted.glb, fitted.obj and fitted_pose.json to {}", o.out.display());
+        }
     }
     let backend = fit.renderer().backend_name();
     Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop })
@@ -470,7 +480,9 @@ fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
         let cases = poses
             .into_iter()
             .enumerate()
-            .map(|(k, (time, pose))| (format!("frame {k} (t = {time:.3} s)"), Options { seed: k as u64, truth: Some(pose), ..o.clone() }))
+            .map(|(k, (time, pose))| {
+                (format!("frame {k} (t = {time:.3} s)"), Options { seed: k as u64, truth: Some(pose), ..o.clone() })
+            })
             .collect();
         return evaluate(&model, &name, o, &what, cases);
     }

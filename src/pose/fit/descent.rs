@@ -147,8 +147,7 @@ impl PoseFit {
         settings: FitSettings,
     ) -> Result<PoseFit> {
         let FitSettings { initial, learning_rate, lambda, initial_shape } = settings;
-        let initial_shape =
-            if initial_shape.is_empty() { vec![0.0; model.shape_count()] } else { initial_shape };
+        let initial_shape = if initial_shape.is_empty() { vec![0.0; model.shape_count()] } else { initial_shape };
         model.morphs.check_betas(&initial_shape)?;
         let initial = initial.unwrap_or_else(|| Pose::rest(model.joint_count()));
         if targets.len() != cameras.len() {
@@ -210,7 +209,8 @@ impl PoseFit {
 
     /// The current pose.
     pub fn pose(&self) -> Pose {
-        Pose::from_params(&self.params[..self.pose_len], self.model.joint_count()).expect("parameters keep their length")
+        Pose::from_params(&self.params[..self.pose_len], self.model.joint_count())
+            .expect("parameters keep their length")
     }
 
     /// The current shape coefficients `β` (empty without morph targets).
@@ -261,7 +261,11 @@ impl PoseFit {
         pose.validate(self.model.joint_count())?;
         let mut params = pose.to_params();
         if params.len() != self.pose_len {
-            return Err(Error::LengthMismatch { what: "restart pose parameters", expected: self.pose_len, got: params.len() });
+            return Err(Error::LengthMismatch {
+                what: "restart pose parameters",
+                expected: self.pose_len,
+                got: params.len(),
+            });
         }
         params.extend_from_slice(&self.initial_shape);
         self.params = params;

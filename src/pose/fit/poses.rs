@@ -59,7 +59,8 @@ pub fn limb_swing_hypotheses(model: &SkinnedMesh, leg_angle: f32, arm_angle: f32
     let world = model.joint_transforms(&rest)?;
     let pairs = mirrored_pairs(model);
     let legs = pairs.first().copied().filter(|_| leg_angle != 0.0);
-    let arms = pairs.get(1).copied().filter(|_| arm_angle != 0.0).map(|(a, b)| (shoulder(model, a), shoulder(model, b)));
+    let arms =
+        pairs.get(1).copied().filter(|_| arm_angle != 0.0).map(|(a, b)| (shoulder(model, a), shoulder(model, b)));
     let swing = |pose: &mut Pose, (a, b): (usize, usize), angle: f32| -> bool {
         let position = |j: usize| world[j].w_axis.truncate();
         let lateral = (position(a) - position(b)).normalize_or_zero();
@@ -98,7 +99,8 @@ fn shoulder(model: &SkinnedMesh, j: usize) -> usize {
     let children: Vec<usize> = (0..parents.len()).filter(|&c| parents[c] == Some(j)).collect();
     let [child] = children[..] else { return j };
     let bone = |k: usize| {
-        let mut lengths = (0..parents.len()).filter(|&c| parents[c] == Some(k)).map(|c| model.skeleton.rest[c].translation.length());
+        let mut lengths =
+            (0..parents.len()).filter(|&c| parents[c] == Some(k)).map(|c| model.skeleton.rest[c].translation.length());
         lengths.next()
     };
     match (bone(j), bone(child)) {

@@ -144,8 +144,10 @@ fn limb_swings_move_the_shoulders_not_the_collars() {
         assert_eq!(h.joint_rotations[left_collar], Vec3::ZERO);
     }
     // Every combination of the two signs appears once.
-    let signs: Vec<(bool, bool)> =
-        hypotheses[1..].iter().map(|h| (h.joint_rotations[left_hip].x > 0.0, h.joint_rotations[left_shoulder].x > 0.0)).collect();
+    let signs: Vec<(bool, bool)> = hypotheses[1..]
+        .iter()
+        .map(|h| (h.joint_rotations[left_hip].x > 0.0, h.joint_rotations[left_shoulder].x > 0.0))
+        .collect();
     for pair in [(true, true), (true, false), (false, true), (false, false)] {
         assert_eq!(signs.iter().filter(|s| **s == pair).count(), 1, "{signs:?}");
     }
