@@ -8,5 +8,6 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod fit_pose;
 mod gradient_maps;
 mod render;
