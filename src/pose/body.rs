@@ -13,7 +13,8 @@ pub const MAKEHUMAN_BODY_GLB: &[u8] = include_bytes!("../../assets/makehuman-bod
 /// targets with joint offsets (`gender`, `weight_max`, `weight_min`, `muscle_max`, `muscle_min`,
 /// `height`, `proportions_ideal`, `proportions_uncommon`, `age_old`, `leg_length`), so that
 /// [`SkinnedMesh::skin_shaped`] moves both the surface and the joints. CC0 (derived from
-/// MakeHuman / MPFB2 data). Parsed from the embedded GLB at each call (a few milliseconds).
+/// MakeHuman / MPFB2 data). Parsed from the embedded GLB at each call (about 40 ms on a 2-core
+/// machine): keep the result rather than calling it in a loop.
 pub fn makehuman_body() -> Result<SkinnedMesh> {
     match load_gltf_bytes(MAKEHUMAN_BODY_GLB, "makehuman-body-7k.glb (built in)")?.0 {
         Model::Skinned(body) => Ok(body),

@@ -61,8 +61,8 @@
 //!
 //! # Writing
 //!
-//! [`save_glb`] writes a [`SkinnedMesh`] (without its morph targets) as a self-contained GLB 2.0
-//! that [`load_gltf`] (and other glTF tools) read back to the same data; [`save_mesh_glb`] writes a
+//! [`save_glb`] writes a [`SkinnedMesh`] (with its morph targets and joint offsets) as a
+//! self-contained GLB 2.0 that [`load_gltf`] (and other glTF tools) read back to the same data; [`save_mesh_glb`] writes a
 //! static mesh, such as a posed, shaped body.
 
 mod accessor;

@@ -15,7 +15,10 @@ use crate::{Error, Result};
 /// short), `WEIGHTS_0` (float), indices (unsigned int) and the inverse bind matrices; one mesh
 /// node at the scene root with no transform, holding the mesh and the skin; one node per joint
 /// with its rest translation / rotation / scale, its children being its child joints; and each
-/// root joint whose `root_parent` is not the identity under a node carrying that matrix.
+/// root joint whose `root_parent` is not the identity under a node carrying that matrix. Morph
+/// targets, when the mesh has them, are written as `POSITION` targets (default weights 0) with
+/// their names in `mesh.extras.targetNames` and their joint offsets, if any, in
+/// `skins[0].extras.morphJointOffsets`, as [`load_gltf`](super::load_gltf) reads them.
 ///
 /// Errors: [`Error::Format`] (naming the path) if the skinned mesh is inconsistent (lengths,
 /// joint indices, parents after children, non-finite values, weights not summing to 1, no
@@ -51,6 +54,16 @@ fn check_for_save(model: &SkinnedMesh) -> Reason<()> {
     }
     if model.mesh.triangles().is_empty() {
         return Err("the mesh has no triangles".into());
+    }
+    model.morphs.validate(vertices, joints).map_err(|e| e.to_string())?;
+    if model.morphs.joint_offsets.is_some() {
+        let names = &model.morphs.names;
+        if let Some(k) = (0..names.len()).find(|&k| names[..k].contains(&names[k])) {
+            return Err(format!(
+                "morph target name `{}` is used twice; joint offsets are stored by name, so names must be unique",
+                names[k]
+            ));
+        }
     }
     if let Some(j) = skeleton.parents.iter().enumerate().position(|(j, p)| p.is_some_and(|p| p >= j)) {
         return Err(format!("joint {j}'s parent does not come before it"));
@@ -108,6 +121,10 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
     let index_bytes = model.mesh.triangles().iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
     add_view(&mut bin, index_bytes, ELEMENT_ARRAY_BUFFER);
     add_view(&mut bin, f32_bytes(skeleton.inverse_bind.iter().flat_map(|m| m.to_cols_array())), None);
+    let morphs = &model.morphs;
+    for deltas in &morphs.deltas {
+        add_view(&mut bin, f32_bytes(deltas.iter().flat_map(|d| d.to_array())), ARRAY_BUFFER);
+    }
 
     let (min, max) =
         positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
@@ -122,13 +139,20 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
     let mut position_accessor = accessor(0, 5126, positions.len(), "VEC3");
     position_accessor.push(("min", json::floats(&min.to_array())));
     position_accessor.push(("max", json::floats(&max.to_array())));
-    let accessors = [
+    let mut accessors = vec![
         position_accessor,
         accessor(1, 5123, positions.len(), "VEC4"),
         accessor(2, 5126, positions.len(), "VEC4"),
         accessor(3, 5125, model.mesh.triangles().len() * 3, "SCALAR"),
         accessor(4, 5126, joint_count, "MAT4"),
     ];
+    for (k, deltas) in morphs.deltas.iter().enumerate() {
+        let (lo, hi) = deltas.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), d| (lo.min(*d), hi.max(*d)));
+        let mut fields = accessor(5 + k, 5126, deltas.len(), "VEC3");
+        fields.push(("min", json::floats(&lo.to_array())));
+        fields.push(("max", json::floats(&hi.to_array())));
+        accessors.push(fields);
+    }
     let buffer_views = views.iter().map(|&(offset, length, target)| {
         let mut fields =
             vec![("buffer", "0".to_string()), ("byteOffset", offset.to_string()), ("byteLength", length.to_string())];
@@ -175,7 +199,29 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
     }
 
     let attributes = json::object(&[("POSITION", "0".into()), ("JOINTS_0", "1".into()), ("WEIGHTS_0", "2".into())]);
-    let primitive = json::object(&[("attributes", attributes), ("indices", "3".into()), ("mode", "4".into())]);
+    let mut primitive = vec![("attributes", attributes), ("indices", "3".into()), ("mode", "4".into())];
+    let mut mesh = vec![("name", json::string("mesh"))];
+    let mut skin = vec![
+        ("inverseBindMatrices", "4".to_string()),
+        ("joints", json::array((1..=joint_count).map(|n| n.to_string()))),
+    ];
+    if !morphs.is_empty() {
+        let targets = (0..morphs.count()).map(|k| json::object(&[("POSITION", (5 + k).to_string())]));
+        primitive.push(("targets", json::array(targets)));
+        mesh.push(("weights", json::floats(&vec![0.0; morphs.count()])));
+        let names = json::array(morphs.names.iter().map(|n| json::string(n)));
+        mesh.push(("extras", json::object(&[("targetNames", names)])));
+        if let Some(offsets) = &morphs.joint_offsets {
+            let per_target: Vec<(&str, String)> = morphs
+                .names
+                .iter()
+                .zip(offsets)
+                .map(|(name, list)| (name.as_str(), json::array(list.iter().map(|o| json::floats(&o.to_array())))))
+                .collect();
+            skin.push(("extras", json::object(&[("morphJointOffsets", json::object(&per_target))])));
+        }
+    }
+    mesh.push(("primitives", json::array([json::object(&primitive)])));
     let document = json::object(&[
         (
             "asset",
@@ -187,17 +233,8 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
         ("scene", "0".into()),
         ("scenes", json::array([json::object(&[("nodes", json::array(scene_nodes))])])),
         ("nodes", json::array(nodes)),
-        (
-            "meshes",
-            json::array([json::object(&[("name", json::string("mesh")), ("primitives", json::array([primitive]))])]),
-        ),
-        (
-            "skins",
-            json::array([json::object(&[
-                ("inverseBindMatrices", "4".into()),
-                ("joints", json::array((1..=joint_count).map(|n| n.to_string()))),
-            ])]),
-        ),
+        ("meshes", json::array([json::object(&mesh)])),
+        ("skins", json::array([json::object(&skin)])),
         ("accessors", json::array(accessors.iter().map(|fields| json::object(fields)))),
         ("bufferViews", json::array(buffer_views)),
         ("buffers", json::array([json::object(&[("byteLength", bin.len().to_string())])])),

@@ -2,6 +2,7 @@
 
 use diffsil::io::gltf::save_mesh_glb;
 use diffsil::io::{load_obj, save_obj};
+use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::Pose;
 
 use super::*;
@@ -85,4 +86,25 @@ fn pose_and_shape_round_trip_through_json() {
     assert!(err.is_ok(), "an empty translation list means none");
     let two = format!(r#"{head}"joint_rotations":[[1,2,3]],"joint_translations":[[0,0,0],[0,0,0]]}}"#);
     assert!(matches!(Pose::from_json(&two), Err(Error::LengthMismatch { .. })));
+}
+
+#[test]
+fn save_glb_keeps_morph_targets_names_and_joint_offsets() {
+    let body = makehuman_body().unwrap();
+    let path = temp_dir().join("makehuman_round_trip.glb");
+    save_glb(&body, &path).unwrap();
+    let back = skinned(load_gltf(&path).unwrap());
+    assert_same_skinned(&body, &back);
+    // Deltas are binary (exact); joint offsets go through JSON text and read back to the same f32.
+    assert_eq!(back.morphs, body.morphs);
+    let mut betas = vec![0.0; 10];
+    betas[9] = 0.5;
+    let pose = Pose::rest(31);
+    let (a, b) = (back.skin_shaped(&pose, &betas).unwrap(), body.skin_shaped(&pose, &betas).unwrap());
+    assert!(a.iter().zip(&b).all(|(x, y)| x.abs_diff_eq(*y, 1e-6)));
+    // Offsets are stored by name: duplicate names cannot be saved with them.
+    let mut twice = body.clone();
+    twice.morphs.names[1] = twice.morphs.names[0].clone();
+    let err = save_glb(&twice, temp_dir().join("twice.glb")).unwrap_err();
+    assert!(err.to_string().contains("used twice"), "{err}");
 }
