@@ -49,5 +49,38 @@ fn pose_fit(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, pose_fit);
+/// One step of the fit of the MakeHuman body (7k vertices, 31 joints) in the same setting, when
+/// `DIFFSIL_ASSETS` names the folder holding `makehuman-body-7k.glb` (skipped otherwise).
+fn body_fit(c: &mut Criterion) {
+    let Some(path) =
+        std::env::var_os("DIFFSIL_ASSETS").map(|d| std::path::PathBuf::from(d).join("makehuman-body-7k.glb"))
+    else {
+        eprintln!("pose_fit: DIFFSIL_ASSETS unset, skipping the MakeHuman body");
+        return;
+    };
+    let Ok(diffsil::io::gltf::Model::Skinned(model)) = diffsil::io::gltf::load_gltf(&path) else {
+        eprintln!("pose_fit: {} is not a skinned model here, skipping it", path.display());
+        return;
+    };
+    let limits = random_pose_limits(&model.skeleton);
+    let truth = random_pose(&limits, 30f32.to_radians(), 1);
+    let rest = model.posed_mesh(&diffsil::pose::skin::Pose::rest(model.joint_count())).expect("the body skins");
+    let cameras = framing_cameras(&rest, VIEWS, RESOLUTION);
+    let mut renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
+    let targets = renderer
+        .render(&model.posed_mesh(&truth).expect("the body skins"), &cameras)
+        .expect("targets render")
+        .images()
+        .to_vec();
+    let mut fit = PoseFit::new(model, cameras, targets, renderer, FitSettings::default()).expect("valid fit");
+    fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
+    let mut group = c.benchmark_group("pose_fit/makehuman-body-7k");
+    group.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
+    group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
+        b.iter(|| fit.step().expect("the step runs"))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, pose_fit, body_fit);
 criterion_main!(benches);

@@ -9,5 +9,6 @@
 mod common;
 
 mod fit_object_pose;
+mod fit_pose;
 mod gradient_maps;
 mod render;

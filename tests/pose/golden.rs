@@ -19,7 +19,12 @@ fn pose_fit_hash() -> u64 {
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
     let truth_mesh = Mesh::with_topology(model.skin(&truth).unwrap(), model.mesh.topology().clone()).unwrap();
     let targets = renderer.render(&truth_mesh, &cameras).unwrap().images().to_vec();
-    let settings = FitSettings { initial: Some(Pose::rest(model.joint_count())), learning_rate: 0.02, lambda: 1e-7 };
+    let settings = FitSettings {
+        initial: Some(Pose::rest(model.joint_count())),
+        learning_rate: 0.02,
+        lambda: 1e-7,
+        ..FitSettings::default()
+    };
     let mut fit = PoseFit::new(model, cameras, targets, renderer, settings).unwrap();
     let mut h = Hash::new();
     for _ in 0..5 {

@@ -77,6 +77,8 @@ pub enum JointKind {
     Head,
     /// Arms, legs, hands and feet.
     Limb,
+    /// Fingers, thumbs and toes: too small to see in a silhouette at the resolutions fitted.
+    Digit,
 }
 
 impl JointKind {
@@ -84,11 +86,15 @@ impl JointKind {
     /// `torso`, `chest` or `abdomen` are [`Spine`](JointKind::Spine), `collar` or `clavicle`
     /// [`Collar`](JointKind::Collar), `neck` [`Neck`](JointKind::Neck), `head`
     /// [`Head`](JointKind::Head), `pelvis` or exactly `hips`/`root`
-    /// [`Root`](JointKind::Root); anything else is a [`Limb`](JointKind::Limb).
+    /// [`Root`](JointKind::Root), `finger`, `thumb`, `toe`, `index` or `pinky`
+    /// [`Digit`](JointKind::Digit) (checked first); `back` is spine too (MakeHuman's
+    /// `LowerBack`); anything else is a [`Limb`](JointKind::Limb).
     pub fn of_name(name: &str) -> JointKind {
         let n = name.to_ascii_lowercase();
         let has = |words: &[&str]| words.iter().any(|w| n.contains(w));
-        if has(&["spine", "torso", "chest", "abdomen"]) {
+        if has(&["finger", "thumb", "toe", "index", "pinky"]) {
+            JointKind::Digit
+        } else if has(&["spine", "torso", "chest", "abdomen", "back"]) {
             JointKind::Spine
         } else if has(&["collar", "clavicle"]) {
             JointKind::Collar
@@ -104,10 +110,11 @@ impl JointKind {
     }
 
     /// Largest rotation offset (radians) of a random plausible pose: 0.5 for limbs, 0.25 for
-    /// spine, collars, neck and head, 0 for the root (use the global orientation instead).
+    /// spine, collars, neck and head, 0 for the root (use the global orientation instead) and
+    /// for fingers and toes (no flailing digits).
     pub fn random_pose_limit(self) -> f32 {
         match self {
-            JointKind::Root => 0.0,
+            JointKind::Root | JointKind::Digit => 0.0,
             JointKind::Spine | JointKind::Collar | JointKind::Neck | JointKind::Head => 0.25,
             JointKind::Limb => 0.5,
         }
@@ -182,5 +189,9 @@ mod tests {
         assert_eq!(JointKind::of_name("left_hip"), JointKind::Limb);
         assert_eq!(JointKind::of_name("arm_joint_L_1"), JointKind::Limb);
         assert_eq!(JointKind::of_name("Head"), JointKind::Head);
+        assert_eq!(JointKind::of_name("LeftHandFinger1"), JointKind::Digit);
+        assert_eq!(JointKind::of_name("RThumb"), JointKind::Digit);
+        assert_eq!(JointKind::of_name("LeftToeBase"), JointKind::Digit);
+        assert_eq!(JointKind::of_name("LowerBack"), JointKind::Spine);
     }
 }

@@ -17,8 +17,20 @@ pub fn orbit_cameras(around: Orbit, views: u32, resolution: u32) -> Vec<Camera> 
 }
 
 /// Cameras framing `mesh`: [`orbit_cameras`] aimed at its bounding-box centre, far enough that
-/// its bounding sphere fits the vertical field of view with a 10% margin.
+/// its bounding sphere fits the vertical field of view with a 10% margin; a level ring
+/// ([`framing_ring`] at elevation 0).
 pub fn framing_cameras(mesh: &Mesh, views: u32, resolution: u32) -> Vec<Camera> {
+    framing_ring(mesh, views, resolution, 0.0)
+}
+
+/// Elevation of the raised ring of views: 15° (`15f32.to_radians()`). From a level ring of four
+/// views the 0°/180° and 90°/270° views are mirror images, which cannot tell which leg or arm is
+/// in front; raised, the ground-facing parts and the order along the line of sight differ.
+pub const RAISED_ELEVATION_DEG: f32 = 15.0;
+
+/// [`framing_cameras`] on a ring raised by `elevation` radians (looking down at the centre from
+/// above; strictly between −π/2 and π/2), at the same distance.
+pub fn framing_ring(mesh: &Mesh, views: u32, resolution: u32, elevation: f32) -> Vec<Camera> {
     let p = mesh.positions();
     let (lo, hi) =
         p.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
@@ -26,5 +38,5 @@ pub fn framing_cameras(mesh: &Mesh, views: u32, resolution: u32) -> Vec<Camera> 
     let radius = p.iter().map(|v| (*v - centre).length()).fold(1e-3f32, f32::max);
     let fov_y = 40f32.to_radians();
     let distance = 1.1 * radius / (0.5 * fov_y).sin();
-    orbit_cameras(Orbit { target: centre, azimuth: 0.0, elevation: 0.0, distance, fov_y }, views, resolution)
+    orbit_cameras(Orbit { target: centre, azimuth: 0.0, elevation, distance, fov_y }, views, resolution)
 }

@@ -21,6 +21,12 @@ pub struct StepReport {
     pub self_intersection_surrogate: f64,
     /// `E_prior = (1/J) Σ_j |θ_j|²` (rad²), unweighted (see [`PoseFit::set_pose_prior`]).
     pub pose_prior: f64,
+    /// `E_shape = (1/K) Σ_k β_k²`, unweighted (see [`PoseFit::set_shape_prior`]); 0 without
+    /// morph targets.
+    pub shape_prior: f64,
+    /// The energy the step descends: `E_sl + λ·surrogate + μ·E_prior + ν·E_shape` (with the
+    /// step's blur).
+    pub energy: f64,
 }
 
 /// The optimiser's state: the pose parameters and Adam's moments. [`PoseFit::state`] and
@@ -46,11 +52,14 @@ pub struct FitSettings {
     /// `E_sl` is a mean over pixels: against a sum over the pixels of four 64² views, `λ` weighs
     /// 16,384 times less (1e-7 is 1.6 times the old 0.001 there).
     pub lambda: f32,
+    /// The shape coefficients `β` the descent starts from, one per morph target of the model
+    /// ([`SkinnedMesh::shape_count`]); empty (the default) for all zero.
+    pub initial_shape: Vec<f32>,
 }
 
 impl Default for FitSettings {
     fn default() -> Self {
-        FitSettings { initial: None, learning_rate: 0.02, lambda: 1e-7 }
+        FitSettings { initial: None, learning_rate: 0.02, lambda: 1e-7, initial_shape: Vec::new() }
     }
 }
 
@@ -73,12 +82,43 @@ pub struct PoseFit {
     pixel_weight: f64,
     /// Weight `μ` of the pose prior.
     pose_prior: f32,
+    /// Weight `ν` of the shape prior.
+    shape_prior: f32,
+    /// How many of `params` are the pose's (`3J + 6`, or `6J + 6` with joint translations); the
+    /// shape coefficients follow.
+    pose_len: usize,
+    /// The shape a restart goes back to.
+    initial_shape: Vec<f32>,
+    /// Which parameters the steps may change ([`PoseFit::set_free`]): joint offsets, global
+    /// orientation and translation.
+    free: Free,
+}
+
+/// Which groups of pose parameters a [`PoseFit`] changes; the others keep their values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Free {
+    /// The joints' rotation offsets.
+    pub joints: bool,
+    /// The global orientation and the root translation.
+    pub global: bool,
+    /// The shape coefficients `β` (when the model has morph targets).
+    pub shape: bool,
+}
+
+impl Default for Free {
+    /// Everything free.
+    fn default() -> Self {
+        Free { joints: true, global: true, shape: true }
+    }
 }
 
 impl PoseFit {
     /// The pose prior weight of the fitting method ([`PoseFit::set_pose_prior`]): about the
     /// size of a converged fit's `E_sl` (~1e-4) for offsets of a third of a radian.
     pub const POSE_PRIOR: f32 = 1e-3;
+
+    /// The shape prior weight of the fitting method ([`PoseFit::set_shape_prior`]).
+    pub const SHAPE_PRIOR: f32 = 1e-3;
 
     /// Starts a fit toward the `targets` (one per camera, each of the camera's size) from
     /// `settings.initial` (the rest pose when `None`), with Adam at `settings.learning_rate`
@@ -106,7 +146,9 @@ impl PoseFit {
         renderer: Renderer,
         settings: FitSettings,
     ) -> Result<PoseFit> {
-        let FitSettings { initial, learning_rate, lambda } = settings;
+        let FitSettings { initial, learning_rate, lambda, initial_shape } = settings;
+        let initial_shape = if initial_shape.is_empty() { vec![0.0; model.shape_count()] } else { initial_shape };
+        model.morphs.check_betas(&initial_shape)?;
         let initial = initial.unwrap_or_else(|| Pose::rest(model.joint_count()));
         if targets.len() != cameras.len() {
             return Err(Error::ViewCountMismatch {
@@ -128,8 +170,14 @@ impl PoseFit {
         let checker = SelfIntersectionChecker::new(model.mesh.topology());
         let mesh = model.mesh.clone();
         let pixels: f64 = targets.iter().map(|t| f64::from(t.width()) * f64::from(t.height())).sum();
+        let mut params = initial.to_params();
+        let pose_len = params.len();
+        params.extend_from_slice(&initial_shape);
         Ok(PoseFit {
-            params: initial.to_params(),
+            params,
+            pose_len,
+            initial_shape,
+            shape_prior: 0.0,
             model,
             cameras,
             blurs: vec![GaussianBlur::identity(); targets.len()],
@@ -143,17 +191,36 @@ impl PoseFit {
             blur: 0.0,
             pixel_weight: if pixels > 0.0 { 1.0 / pixels } else { 1.0 },
             pose_prior: 0.0,
+            free: Free::default(),
         })
+    }
+
+    /// Chooses which parameters the steps change (all by default); a frozen group keeps its
+    /// current values exactly (its gradient entries are zeroed before Adam sees them, and its
+    /// values restored after the step).
+    pub fn set_free(&mut self, free: Free) {
+        self.free = free;
+    }
+
+    /// Which parameters the steps change.
+    pub fn free(&self) -> Free {
+        self.free
     }
 
     /// The current pose.
     pub fn pose(&self) -> Pose {
-        Pose::from_params(&self.params, self.model.joint_count()).expect("parameters keep their length")
+        Pose::from_params(&self.params[..self.pose_len], self.model.joint_count())
+            .expect("parameters keep their length")
+    }
+
+    /// The current shape coefficients `β` (empty without morph targets).
+    pub fn shape(&self) -> &[f32] {
+        &self.params[self.pose_len..]
     }
 
     /// The model's vertices at the current pose.
     pub fn vertices(&self) -> Result<Vec<Vec3>> {
-        self.model.skin(&self.pose())
+        self.model.skin_shaped(&self.pose(), self.shape())
     }
 
     /// Renders the current pose in every view.
@@ -187,10 +254,21 @@ impl PoseFit {
         Ok(())
     }
 
-    /// Moves to `pose` and forgets Adam's moments (a fresh start from there).
+    /// Moves to `pose` and the initial shape, and forgets Adam's moments (a fresh start from
+    /// there). Errors when `pose` does not fit the skeleton or carries joint translations where
+    /// the fit's initial pose did not (or the other way round).
     pub fn restart(&mut self, pose: &Pose) -> Result<()> {
         pose.validate(self.model.joint_count())?;
-        self.params = pose.to_params();
+        let mut params = pose.to_params();
+        if params.len() != self.pose_len {
+            return Err(Error::LengthMismatch {
+                what: "restart pose parameters",
+                expected: self.pose_len,
+                got: params.len(),
+            });
+        }
+        params.extend_from_slice(&self.initial_shape);
+        self.params = params;
         self.adam = Adam::new(self.adam.learning_rate);
         Ok(())
     }
@@ -221,6 +299,24 @@ impl PoseFit {
         }
         self.pose_prior = weight;
         Ok(())
+    }
+
+    /// Weight `ν` of the shape prior: the energy gains `ν·E_shape` with
+    /// `E_shape = (1/K) Σ_k β_k²` over the `K` morph targets, a zero-mean Gaussian prior on the
+    /// shape (morph targets are authored so that ±1 is an extreme body). 0 unless set; the
+    /// method's value is [`PoseFit::SHAPE_PRIOR`]. Errors on a negative or non-finite weight.
+    pub fn set_shape_prior(&mut self, weight: f32) -> Result<()> {
+        if !(weight.is_finite() && weight >= 0.0) {
+            return Err(Error::InvalidSettings(format!("need a non-negative shape prior weight, got {weight}")));
+        }
+        self.shape_prior = weight;
+        Ok(())
+    }
+
+    /// `E_shape` at the current shape.
+    fn shape_energy(&self) -> f64 {
+        let betas = self.shape();
+        betas.iter().map(|&b| f64::from(b) * f64::from(b)).sum::<f64>() / betas.len().max(1) as f64
     }
 
     /// `E_prior` at the current pose.
@@ -280,13 +376,16 @@ impl PoseFit {
         let (silhouette, _) = loss::squared_error_views(frame.images(), &self.targets)?;
         let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
         let prior = self.prior_energy();
-        Ok(silhouette * self.pixel_weight + f64::from(self.lambda) * surrogate + f64::from(self.pose_prior) * prior)
+        Ok(silhouette * self.pixel_weight
+            + f64::from(self.lambda) * surrogate
+            + f64::from(self.pose_prior) * prior
+            + f64::from(self.shape_prior) * self.shape_energy())
     }
 
     /// One gradient step; returns the energies at the pose before the step.
     pub fn step(&mut self) -> Result<StepReport> {
         let pose = self.pose();
-        let (vertices, cache) = self.model.skin_with_cache(&pose)?;
+        let (vertices, cache) = self.model.skin_shaped_with_cache(&pose, self.shape())?;
         self.mesh.set_positions(&vertices)?;
         // The self-intersection check is single-threaded and independent of the images: it runs
         // beside the render + backward.
@@ -318,16 +417,50 @@ impl PoseFit {
             }
             None => (0.0, 0.0),
         };
-        let d_pose = self.model.backward(&cache, &d_vertices)?;
+        let (d_pose, d_shape) = self.model.backward_with_shape(&cache, &d_vertices)?;
         let mut grads = d_pose.to_params();
+        grads.extend_from_slice(&d_shape);
         let prior = self.prior_energy();
+        let shape_prior = self.shape_energy();
         self.add_prior_gradient(&mut grads);
+        let shapes = self.params.len() - self.pose_len;
+        if self.shape_prior > 0.0 && shapes > 0 {
+            let scale = 2.0 * self.shape_prior / shapes as f32;
+            for (g, &b) in grads[self.pose_len..].iter_mut().zip(&self.params[self.pose_len..]) {
+                *g += scale * b;
+            }
+        }
+        let joints = 3 * self.model.joint_count();
+        let mut frozen = Vec::new();
+        if !self.free.joints {
+            // Rotation offsets, and the joint translations when the pose has them.
+            frozen.extend([0..joints, joints + 6..self.pose_len]);
+        }
+        if !self.free.global {
+            frozen.push(joints..joints + 6);
+        }
+        if !self.free.shape {
+            frozen.push(self.pose_len..self.params.len());
+        }
+        let kept: Vec<Vec<f32>> = frozen.iter().map(|r| self.params[r.clone()].to_vec()).collect();
+        for r in &frozen {
+            grads[r.clone()].fill(0.0);
+        }
         self.adam.step(&mut self.params, &grads)?;
+        // Adam's moments from before a group was frozen would still move it: put it back.
+        for (r, values) in frozen.iter().zip(kept) {
+            self.params[r.clone()].copy_from_slice(&values);
+        }
         Ok(StepReport {
             silhouette,
             self_intersection: penalty,
             self_intersection_surrogate: surrogate,
             pose_prior: prior,
+            shape_prior,
+            energy: silhouette
+                + f64::from(lambda) * surrogate
+                + f64::from(self.pose_prior) * prior
+                + f64::from(self.shape_prior) * shape_prior,
         })
     }
 }

@@ -32,7 +32,7 @@ pub fn per_vertex_error(a: &[Vec3], b: &[Vec3]) -> f64 {
 /// Starting poses for [`PoseFit::run`](super::PoseFit::run): the rest pose, and, when the
 /// skeleton has a pair of legs, the rest pose with the legs in a stride of `angle` radians each
 /// way (one leg swung forward and the other back by `angle` about the axis through both hips,
-/// then the other way round).
+/// then the other way round). [`limb_swing_hypotheses`] with no arm swing.
 ///
 /// The legs are the mirrored pair of sibling joints nearest the root: two children of one joint
 /// with subtrees of the same size whose rest positions are equally far from their parent (within
@@ -44,30 +44,81 @@ pub fn per_vertex_error(a: &[Vec3], b: &[Vec3]) -> f64 {
 /// Errors: [`crate::Error::InvalidSettings`] for a non-finite `angle` (a stride angle is radians,
 /// e.g. 0.35).
 pub fn stride_hypotheses(model: &SkinnedMesh, angle: f32) -> Result<Vec<Pose>> {
-    if !angle.is_finite() {
-        return Err(crate::Error::InvalidSettings(format!(
-            "stride_hypotheses: the stride angle is {angle}; it must be a finite number of radians, e.g. 0.35"
-        )));
+    limb_swing_hypotheses(model, angle, 0.0)
+}
+
+/// Starting poses with the legs and the arms swung forward and back: the rest pose; then, for
+/// each way the legs can stride by `leg_angle` ([`stride_hypotheses`]; none when 0 or without
+/// legs), the arms swung by `arm_angle` one way and the other (one arm forward, the other back,
+/// about the axis through both shoulders; not swung when `arm_angle` is 0 or there are no arms).
+/// That is 1, 3 or 5 poses (3 with arms but no legs).
+///
+/// The arms are the mirrored pair of sibling joints nearest the root after the legs (same rule
+/// as the legs'). When such a joint is a collar bone — it has one child, and its bone to that
+/// child is less than 60% as long as the child's own bone — its child (the shoulder) swings
+/// instead.
+///
+/// Errors ([`Error::InvalidSettings`](crate::Error::InvalidSettings)) when an angle is not finite.
+pub fn limb_swing_hypotheses(model: &SkinnedMesh, leg_angle: f32, arm_angle: f32) -> Result<Vec<Pose>> {
+    for (name, angle) in [("leg stride", leg_angle), ("arm swing", arm_angle)] {
+        if !angle.is_finite() {
+            return Err(crate::Error::InvalidSettings(format!(
+                "limb_swing_hypotheses: the {name} angle is {angle}; it must be a finite number of radians, e.g. 0.35"
+            )));
+        }
     }
     let rest = Pose::rest(model.joint_count());
-    let Some((a, b)) = leg_pair(model) else {
-        return Ok(vec![rest]);
-    };
     let world = model.joint_transforms(&rest)?;
-    let position = |j: usize| world[j].w_axis.truncate();
-    let lateral = (position(a) - position(b)).normalize_or_zero();
-    if lateral == Vec3::ZERO {
-        return Ok(vec![rest]);
-    }
-    let local_axis = |j: usize| (offset_frame(model, &world, j).transpose() * lateral).normalize_or_zero();
+    let pairs = mirrored_pairs(model);
+    let legs = pairs.first().copied().filter(|_| leg_angle != 0.0);
+    let arms =
+        pairs.get(1).copied().filter(|_| arm_angle != 0.0).map(|(a, b)| (shoulder(model, a), shoulder(model, b)));
+    let swing = |pose: &mut Pose, (a, b): (usize, usize), angle: f32| -> bool {
+        let position = |j: usize| world[j].w_axis.truncate();
+        let lateral = (position(a) - position(b)).normalize_or_zero();
+        if lateral == Vec3::ZERO {
+            return false;
+        }
+        let local_axis = |j: usize| (offset_frame(model, &world, j).transpose() * lateral).normalize_or_zero();
+        pose.joint_rotations[a] += angle * local_axis(a);
+        pose.joint_rotations[b] -= angle * local_axis(b);
+        true
+    };
     let mut hypotheses = vec![rest.clone()];
-    for sign in [1.0, -1.0] {
-        let mut pose = rest.clone();
-        pose.joint_rotations[a] = sign * angle * local_axis(a);
-        pose.joint_rotations[b] = -sign * angle * local_axis(b);
-        hypotheses.push(pose);
+    let leg_signs: &[f32] = if legs.is_some() { &[1.0, -1.0] } else { &[0.0] };
+    let arm_signs: &[f32] = if arms.is_some() { &[-1.0, 1.0] } else { &[0.0] };
+    for &leg in leg_signs {
+        for &arm in arm_signs {
+            let mut pose = rest.clone();
+            let mut moved = false;
+            if let Some(pair) = legs {
+                moved |= swing(&mut pose, pair, leg * leg_angle);
+            }
+            if let Some(pair) = arms {
+                moved |= swing(&mut pose, pair, arm * arm_angle);
+            }
+            if moved {
+                hypotheses.push(pose);
+            }
+        }
     }
     Ok(hypotheses)
+}
+
+/// `j`, or its only child when `j` is a collar bone (see [`limb_swing_hypotheses`]).
+fn shoulder(model: &SkinnedMesh, j: usize) -> usize {
+    let parents = &model.skeleton.parents;
+    let children: Vec<usize> = (0..parents.len()).filter(|&c| parents[c] == Some(j)).collect();
+    let [child] = children[..] else { return j };
+    let bone = |k: usize| {
+        let mut lengths =
+            (0..parents.len()).filter(|&c| parents[c] == Some(k)).map(|c| model.skeleton.rest[c].translation.length());
+        lengths.next()
+    };
+    match (bone(j), bone(child)) {
+        (Some(own), Some(next)) if own < 0.6 * next => child,
+        _ => j,
+    }
 }
 
 /// The rest-pose world rotation of the frame joint `j`'s offset acts in:
@@ -86,8 +137,9 @@ fn offset_frame(model: &SkinnedMesh, world: &[glam::Mat4], j: usize) -> Mat3 {
     unscaled * Mat3::from_quat(model.skeleton.rest[j].rotation.normalize())
 }
 
-/// The mirrored pair of sibling joints nearest the root (see [`stride_hypotheses`]).
-fn leg_pair(model: &SkinnedMesh) -> Option<(usize, usize)> {
+/// The mirrored pairs of sibling joints (see [`stride_hypotheses`]), nearest the root first
+/// (ties in joint order); a joint belongs to at most one pair.
+fn mirrored_pairs(model: &SkinnedMesh) -> Vec<(usize, usize)> {
     let parents = &model.skeleton.parents;
     let n = parents.len();
     let mut subtree = vec![1usize; n];
@@ -103,16 +155,20 @@ fn leg_pair(model: &SkinnedMesh) -> Option<(usize, usize)> {
         }
     }
     let offset = |j: usize| model.skeleton.rest[j].translation.length();
-    let mut best: Option<(usize, usize)> = None;
+    let mut pairs = Vec::new();
+    let mut used = vec![false; n];
     for a in 0..n {
         for b in a + 1..n {
             let (Some(pa), Some(pb)) = (parents[a], parents[b]) else { continue };
             let (la, lb) = (offset(a), offset(b));
             let mirrored = pa == pb && subtree[a] == subtree[b] && la > 0.0 && (la - lb).abs() <= 0.1 * la.max(lb);
-            if mirrored && best.is_none_or(|(c, _)| depth[a] < depth[c]) {
-                best = Some((a, b));
+            if mirrored && !used[a] && !used[b] {
+                used[a] = true;
+                used[b] = true;
+                pairs.push((a, b));
             }
         }
     }
-    best
+    pairs.sort_by_key(|&(a, _)| depth[a]);
+    pairs
 }

@@ -1,4 +1,7 @@
-//! The coarse-to-fine, multi-hypothesis schedule and [`PoseFit::run`], which follows it.
+//! The coarse-to-fine, multi-hypothesis schedule and [`PoseFit::run`], which follows it, with
+//! its convergence rule and cancellation.
+
+use std::ops::ControlFlow;
 
 use super::{PoseFit, StepReport};
 use crate::pose::skin::Pose;
@@ -23,6 +26,54 @@ pub struct Schedule {
     pub hypothesis_steps: u32,
     /// The stages the chosen hypothesis runs, coarse to fine.
     pub stages: Vec<Stage>,
+    /// When the last stage may end early; `None`: it runs all its steps.
+    pub convergence: Option<Convergence>,
+}
+
+/// The early-stopping rule of [`PoseFit::run`]: the last stage ends after a step where the mean
+/// step energy ([`StepReport::energy`]) of its last `window` steps is not below `(1 − tolerance)`
+/// times the mean of the `window` steps before them. Only the last stage stops early (the
+/// earlier ones are short and blurred), and never before `2·window` of its steps. Comparing
+/// means rather than single steps lets the rule ignore Adam's step-to-step noise and the
+/// transient where the blur changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Convergence {
+    /// Steps per window, ≥ 1.
+    pub window: u32,
+    /// Relative decrease of the windows' mean energy below which the fit has converged, ≥ 0.
+    pub tolerance: f64,
+}
+
+impl Default for Convergence {
+    /// Windows of 25 steps, 0.5%.
+    fn default() -> Self {
+        Convergence { window: 25, tolerance: 0.005 }
+    }
+}
+
+impl Convergence {
+    /// Whether the stage's step energies so far (`energies`, oldest first) meet the rule.
+    pub fn met(&self, energies: &[f64]) -> bool {
+        let w = self.window.max(1) as usize;
+        if energies.len() < 2 * w {
+            return false;
+        }
+        let n = energies.len();
+        let mean = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
+        let (before, last) = (mean(&energies[n - 2 * w..n - w]), mean(&energies[n - w..]));
+        last >= (1.0 - self.tolerance) * before
+    }
+}
+
+/// Why [`PoseFit::run`] ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// Every step of the schedule was taken.
+    Finished,
+    /// The last stage met the [`Convergence`] rule.
+    Converged,
+    /// The callback returned [`ControlFlow::Break`].
+    Cancelled,
 }
 
 impl Schedule {
@@ -42,6 +93,7 @@ impl Schedule {
         let middle = total_steps / 12;
         let fine = total_steps.saturating_sub(hypotheses * hypothesis_steps + coarse + middle);
         Schedule {
+            convergence: None,
             hypothesis_steps,
             stages: vec![
                 Stage { blur: Self::COARSE_BLUR, steps: coarse },
@@ -81,24 +133,28 @@ pub struct RunReport {
     pub chosen: usize,
     /// Energy at the final pose (unblurred).
     pub energy: f64,
+    /// Why the run ended.
+    pub stop: Stop,
 }
 
 impl PoseFit {
     /// Runs a whole fit: each of `hypotheses` (starting poses; the current pose when empty) for
     /// `schedule.hypothesis_steps` steps at the first stage's blur, each from a fresh Adam, then
     /// the one with the lowest energy ([`PoseFit::energy`]) through every stage of `schedule`,
-    /// keeping its Adam state. Calls `on_step` after every step. Ends unblurred, at the chosen
-    /// hypothesis's final pose. Errors (and stops) on the first step that errors.
+    /// keeping its Adam state; the last stage ends early when `schedule.convergence` says so.
+    /// Calls `on_step` after every step: [`ControlFlow::Break`] cancels the run, which then
+    /// ends where it is (the hypothesis being tried counts as the chosen one). Ends unblurred.
+    /// Errors (and stops) on the first step that errors.
     pub fn run(
         &mut self,
         schedule: &Schedule,
         hypotheses: &[Pose],
-        mut on_step: impl FnMut(&PoseFit, &Progress),
+        mut on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
     ) -> Result<RunReport> {
         let first_blur = schedule.stages.first().map_or(0.0, |s| s.blur);
         let mut step = 0;
         let mut states = Vec::new();
-        let mut energies = Vec::new();
+        let mut hypothesis_energies = Vec::new();
         let current = self.pose();
         let starts = if hypotheses.is_empty() { std::slice::from_ref(&current) } else { hypotheses };
         for (k, start) in starts.iter().enumerate() {
@@ -107,28 +163,46 @@ impl PoseFit {
             for _ in 0..schedule.hypothesis_steps {
                 let report = self.step()?;
                 step += 1;
-                on_step(self, &Progress { step, hypothesis: Some(k), blur: self.blur(), report });
+                if on_step(self, &Progress { step, hypothesis: Some(k), blur: self.blur(), report }).is_break() {
+                    return self.end(step, hypothesis_energies, k, Stop::Cancelled);
+                }
             }
-            energies.push(self.energy()?);
+            hypothesis_energies.push(self.energy()?);
             states.push(self.state());
         }
-        let chosen = energies
+        let chosen = hypothesis_energies
             .iter()
             .enumerate()
             .min_by(|a, b| a.1.total_cmp(b.1))
             .map(|(k, _)| k)
             .expect("at least one hypothesis");
         self.set_state(states.swap_remove(chosen))?;
-        for stage in &schedule.stages {
+        let last = schedule.stages.len().saturating_sub(1);
+        for (s, stage) in schedule.stages.iter().enumerate() {
             self.set_blur(stage.blur)?;
+            let rule = if s == last { schedule.convergence } else { None };
+            let mut energies = Vec::new();
             for _ in 0..stage.steps {
                 let report = self.step()?;
                 step += 1;
-                on_step(self, &Progress { step, hypothesis: None, blur: self.blur(), report });
+                if on_step(self, &Progress { step, hypothesis: None, blur: self.blur(), report }).is_break() {
+                    return self.end(step, hypothesis_energies, chosen, Stop::Cancelled);
+                }
+                if let Some(rule) = rule {
+                    energies.push(report.energy);
+                    if rule.met(&energies) {
+                        return self.end(step, hypothesis_energies, chosen, Stop::Converged);
+                    }
+                }
             }
         }
+        self.end(step, hypothesis_energies, chosen, Stop::Finished)
+    }
+
+    /// Ends a run: no blur, the final energy, the report.
+    fn end(&mut self, steps: u32, hypothesis_energies: Vec<f64>, chosen: usize, stop: Stop) -> Result<RunReport> {
         self.set_blur(0.0)?;
         let energy = self.energy()?;
-        Ok(RunReport { steps: step, hypothesis_energies: energies, chosen, energy })
+        Ok(RunReport { steps, hypothesis_energies, chosen, energy, stop })
     }
 }

@@ -1,9 +1,13 @@
 //! Pose fitting end to end on the built-in figure: a short fit lowers the error, the
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
+mod call;
+
+use std::ops::ControlFlow;
+
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage,
+    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage, Stop,
 };
 use diffsil::pose::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
@@ -52,7 +56,13 @@ fn the_method_runs_its_schedule_and_lowers_the_error() {
     let hypotheses = stride_hypotheses(&model, 0.3).unwrap();
     let schedule = Schedule::coarse_to_fine(60, hypotheses.len());
     let mut seen = Vec::new();
-    let report = fit.run(&schedule, &hypotheses, |_, p| seen.push((p.step, p.hypothesis, p.blur))).unwrap();
+    let report = fit
+        .run(&schedule, &hypotheses, |_, p| {
+            seen.push((p.step, p.hypothesis, p.blur));
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(report.stop, Stop::Finished);
     assert_eq!(report.steps, 60);
     assert_eq!(seen.len(), 60);
     assert_eq!(seen.first(), Some(&(1, Some(0), Schedule::COARSE_BLUR)));
@@ -82,7 +92,7 @@ fn truth_in_two_views() -> (SkinnedMesh, Pose, Vec<Camera>, Vec<Image>, Renderer
 
 /// Settings starting at `initial`, without the self-intersection term.
 fn settings(initial: &Pose, learning_rate: f32) -> FitSettings {
-    FitSettings { initial: Some(initial.clone()), learning_rate, lambda: 0.0 }
+    FitSettings { initial: Some(initial.clone()), learning_rate, lambda: 0.0, ..FitSettings::default() }
 }
 
 #[test]
@@ -145,7 +155,7 @@ fn default_schedule_splits_the_steps() {
     let many = Schedule::coarse_to_fine(100, 20);
     assert!(20 * many.hypothesis_steps <= 50);
     assert!(Schedule::coarse_to_fine(3, 3).total_steps(3) <= 3);
-    let plain = Schedule { hypothesis_steps: 0, stages: vec![Stage { blur: 0.0, steps: 5 }] };
+    let plain = Schedule { hypothesis_steps: 0, stages: vec![Stage { blur: 0.0, steps: 5 }], convergence: None };
     assert_eq!(plain.total_steps(1), 5);
 }
 

@@ -1,0 +1,513 @@
+//! Fits a skinned mesh's pose to multi-view silhouettes by gradient descent (paper §4), with the
+//! library's one-call method `diffsil::pose::fit::fit`.
+//!
+//! ```text
+//! cargo run --release --example fit_pose                          # built-in figure, seed 1
+//! cargo run --release --example fit_pose -- --model ../shared/assets/RiggedFigure.glb
+//! cargo run --release --example fit_pose -- --seeds 31-80         # median, p90, worst, failures
+//! cargo run --release --example fit_pose -- --seeds 31-50 --mask-noise dilate
+//! cargo run --release --example fit_pose -- --ablation 10         # paper Table 2 over 10 seeds
+//! ```
+//!
+//! A random plausible ground-truth pose is drawn from the seed (joint limits from the joints'
+//! names, `diffsil::pose::figure::random_pose_limits`: limbs 0.5 rad, spine, collars, neck and
+//! head 0.25, root, fingers and toes 0, so no digit flails), its silhouettes rendered from
+//! `--view-count` cameras on a level or raised ring (`--views`), optionally spoiled
+//! (`--mask-noise`), and the pose fitted by `fit` with `FitOptions::default()` except where an
+//! option says otherwise. `--plain` fits from the rest pose without blur, prior, starting poses
+//! or early stop instead (the paper's plain descent). Pictures go to `--out`: per view,
+//! target | fitted | difference, before (top) and after (bottom). The last line is
+//! machine-readable.
+
+mod masks;
+mod sheet;
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Parser;
+use diffsil::io::gltf::{load_gltf, Model};
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, PoseFit, Stop, RAISED_ELEVATION_DEG,
+};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
+use diffsil::{Mesh, RenderSettings, Renderer};
+
+#[path = "../common/mod.rs"]
+mod common;
+use common::{finite, median, BackendName};
+use masks::MaskNoise;
+
+/// The ring the cameras sit on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Layout {
+    /// At the height of the model's centre: opposite views are mirror images.
+    Level,
+    /// 15° above it, looking down (`RAISED_ELEVATION_DEG`).
+    Raised,
+}
+
+/// Command-line options (`fit_pose --help`).
+#[derive(Clone, Debug, Parser)]
+#[command(
+    name = "fit_pose",
+    about = "Fit a skinned mesh's pose to multi-view silhouettes",
+    after_help = "\
+Method (diffsil::pose::fit::fit, FitOptions::default()): E = E_sl + λ·E_spt + μ·E_prior, where
+E_sl is the mean squared error over all pixels of all views between the rendered and target
+silhouettes, both blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on
+the joint offsets. Each of the three starting poses (rest, legs striding each way) runs 1/10 of
+the steps with a blur of 6% of the image height; the one with the lowest unblurred energy E
+continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of 300) unblurred, ending early
+after 30 steps without a 1% lower energy. Same method and settings at every resolution and F."
+)]
+struct Options {
+    /// Skinned .gltf/.glb [default: the built-in figure]
+    #[arg(long, value_name = "PATH")]
+    model: Option<PathBuf>,
+    /// The ring of cameras around the model (raised: seeds 31–80 of the built-in figure end
+    /// with no fit above 2% of the height, level: one at 57 mm)
+    #[arg(long, value_name = "LAYOUT", value_enum, default_value_t = Layout::Raised)]
+    views: Layout,
+    /// Number of cameras on the ring, azimuths evenly spaced, at least 1
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
+    view_count: u32,
+    /// Image side in pixels
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    resolution: u32,
+    /// Samples per pixel side, 1 = no anti-aliasing
+    #[arg(long, value_name = "F", default_value_t = 4)]
+    supersample: u32,
+    /// What is done to the target masks
+    #[arg(long, value_name = "KIND", value_enum, default_value_t = MaskNoise::None)]
+    mask_noise: MaskNoise,
+    /// Fraction of pixels `--mask-noise flip` flips
+    #[arg(long, value_name = "X", default_value_t = 0.02)]
+    flip_fraction: f64,
+    /// Adam steps in all, every starting pose included (fewer when the fit converges)
+    #[arg(long, value_name = "N", default_value_t = 300)]
+    iterations: u32,
+    /// Adam learning rate
+    #[arg(long, value_name = "X", default_value = "0.02", value_parser = finite)]
+    lr: f32,
+    /// Self-intersection weight λ; E_sl is a mean over pixels
+    #[arg(long, value_name = "X", default_value = "1e-7", value_parser = finite)]
+    lambda: f32,
+    /// Leg stride (radians) of the extra starting poses; 0: none
+    #[arg(long, value_name = "X", default_value = "0.3", value_parser = finite)]
+    stride: f32,
+    /// Arm swing (radians) of the extra starting poses; 0: none
+    #[arg(long, value_name = "X", default_value = "0", value_parser = finite)]
+    arm_swing: f32,
+    /// Weight μ of the pose prior μ·mean_j |θ_j|² [default: PoseFit::POSE_PRIOR = 1e-3]
+    #[arg(long, value_name = "X", default_value_t = PoseFit::POSE_PRIOR, hide_default_value = true, value_parser = finite)]
+    prior: f32,
+    /// Run every step: no early stop on convergence
+    #[arg(long)]
+    no_early_stop: bool,
+    /// Cancel a fit after this many seconds (it keeps the pose it reached)
+    #[arg(long, value_name = "S")]
+    time_limit: Option<f64>,
+    /// Keep the global orientation and translation at the start's (the rest pose's)
+    #[arg(long)]
+    no_global: bool,
+    /// Random shape too: β_k uniform in ±0.3 per morph target as ground truth, fitted jointly
+    /// with the pose (needs a model with morph targets)
+    #[arg(long)]
+    shape: bool,
+    /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
+    #[arg(long)]
+    plain: bool,
+    /// Seed of the ground-truth pose
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    /// Evaluate over a range of seeds, e.g. 31-80: per-seed errors, median, p90, worst,
+    /// failures (above 2% of the body height) and seconds per fit
+    #[arg(long, value_name = "A-B", value_parser = seed_range)]
+    seeds: Option<(u64, u64)>,
+    /// Which engine renders
+    #[arg(long, value_name = "NAME", value_enum, default_value_t = BackendName::Cpu)]
+    backend: BackendName,
+    /// Where the PNGs go
+    #[arg(long, value_name = "DIR", default_value = "fit_pose_out")]
+    out: PathBuf,
+    /// Also write the fitted posed mesh (`fitted.glb`, `fitted.obj`) and the fitted pose and
+    /// shape (`fitted_pose.json`) to `--out`
+    #[arg(long)]
+    save: bool,
+    /// Run N seeds for {32², 64²} × {F = 1, F = 4} and print the median errors
+    #[arg(long, value_name = "N")]
+    ablation: Option<u32>,
+    /// Ground truths from a glTF animation of `--model` (its name or index) instead of random
+    /// poses: one fit per frame, evaluated like `--seeds`
+    #[arg(long, value_name = "CLIP")]
+    motion: Option<String>,
+    /// Frames of `--motion`: every k-th key of the clip's most detailed channel, k chosen to give
+    /// this many
+    #[arg(long, value_name = "N", default_value_t = 12)]
+    frames: usize,
+    /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
+    #[arg(skip)]
+    truth: Option<Pose>,
+}
+
+/// `A-B` (inclusive, A ≤ B) or a single seed.
+fn seed_range(value: &str) -> Result<(u64, u64), String> {
+    let parse = |s: &str| s.trim().parse::<u64>().map_err(|e| format!("{e}"));
+    let (a, b) = match value.split_once('-') {
+        Some((a, b)) => (parse(a)?, parse(b)?),
+        None => (parse(value)?, parse(value)?),
+    };
+    if a <= b {
+        Ok((a, b))
+    } else {
+        Err("use A-B with A ≤ B".into())
+    }
+}
+
+fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
+    match &o.model {
+        None => Ok((builtin_figure(), "builtin-figure".into())),
+        Some(path) => match load_gltf(path)? {
+            Model::Skinned(model) => {
+                Ok((model, path.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned())))
+            }
+            Model::Static(_) => {
+                Err(format!("{}: the model has no skin, so it has no pose to fit", path.display()).into())
+            }
+        },
+    }
+}
+
+/// The fitting method's options for these command-line options.
+fn fit_options(o: &Options) -> FitOptions {
+    let defaults = FitOptions::default();
+    if o.plain {
+        return FitOptions {
+            steps: o.iterations,
+            learning_rate: o.lr,
+            lambda: o.lambda,
+            pose_prior: 0.0,
+            coarse_blur: 0.0,
+            convergence: None,
+            fit_global: !o.no_global,
+            ..defaults
+        };
+    }
+    FitOptions {
+        steps: o.iterations,
+        learning_rate: o.lr,
+        lambda: o.lambda,
+        pose_prior: o.prior,
+        leg_stride: o.stride,
+        arm_swing: o.arm_swing,
+        convergence: if o.no_early_stop { None } else { Some(Convergence::default()) },
+        fit_global: !o.no_global,
+        fit_shape: o.shape,
+        ..defaults
+    }
+}
+
+/// What one fit measured.
+struct Outcome {
+    error_m: f64,
+    /// Largest extent of the model's rest pose (its height for a standing body).
+    height_m: f64,
+    seconds: f64,
+    backend: String,
+    steps: u32,
+    stop: Stop,
+}
+
+/// Fits one seed; writes pictures when `pictures` is set.
+fn fit_seed(
+    model: &SkinnedMesh,
+    o: &Options,
+    pictures: bool,
+    quiet: bool,
+) -> Result<Outcome, Box<dyn std::error::Error>> {
+    let limits = random_pose_limits(&model.skeleton);
+    let truth = o.truth.clone().unwrap_or_else(|| random_pose(&limits, 30f32.to_radians(), o.seed));
+    let betas: Vec<f32> = if o.shape {
+        if model.shape_count() == 0 {
+            return Err("--shape needs a model with morph targets".into());
+        }
+        let mut rng = diffsil::random::SplitMix64::new(o.seed ^ 0x5EED_5A9E);
+        (0..model.shape_count()).map(|_| rng.range(-0.3, 0.3)).collect()
+    } else {
+        Vec::new()
+    };
+    let truth_vertices = model.skin_shaped(&truth, &betas)?;
+    // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).
+    let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
+    let elevation = match o.views {
+        Layout::Level => 0.0,
+        Layout::Raised => RAISED_ELEVATION_DEG.to_radians(),
+    };
+    let cameras = framing_ring(&rest_mesh, o.view_count, o.resolution, elevation);
+    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
+    let clean = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
+    let targets: Vec<_> = clean
+        .iter()
+        .enumerate()
+        .map(|(v, t)| masks::apply(o.mask_noise, t, o.flip_fraction, o.seed * 1000 + v as u64))
+        .collect();
+    let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
+
+    let options = fit_options(o);
+    let (schedule, hypotheses) = options.plan(model)?;
+    let total = schedule.total_steps(hypotheses.len());
+    let bar = if quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(total as u64) };
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
+    let start = Instant::now();
+    let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |fit, progress| {
+        if !quiet && (progress.step % 10 == 0 || progress.step == total) {
+            let error = fit.vertices().map_or(f64::NAN, |v| per_vertex_error(&v, &truth_vertices) * 1000.0);
+            let stage = match progress.hypothesis {
+                Some(k) => format!("start {}/{}", k + 1, hypotheses.len()),
+                None => format!("blur {:.3}", progress.blur),
+            };
+            bar.set_message(format!(
+                "{stage}  E_sl {:.2e}  E_spt {:.4}  error {error:.1} mm",
+                progress.report.silhouette, progress.report.self_intersection
+            ));
+        }
+        bar.inc(1);
+        match o.time_limit {
+            Some(limit) if start.elapsed().as_secs_f64() > limit => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        }
+    })?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish();
+    let (mut fit, run) = (fitted.fit, fitted.report);
+    if !quiet {
+        if run.hypothesis_energies.len() > 1 {
+            let energies: Vec<String> = run.hypothesis_energies.iter().map(|e| format!("{e:.3e}")).collect();
+            println!("starting poses' energies: {} (kept {})", energies.join(", "), run.chosen + 1);
+        }
+        println!("stopped: {:?} after {} steps", run.stop, run.steps);
+    }
+    let error_m = per_vertex_error(&fit.vertices()?, &truth_vertices);
+    let (lo, hi) = rest_mesh
+        .positions()
+        .iter()
+        .fold((diffsil::Vec3::splat(f32::MAX), diffsil::Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let height_m = f64::from((hi - lo).max_element());
+
+    if let Some(before) = before {
+        let after = fit.render()?;
+        std::fs::create_dir_all(&o.out)?;
+        for (view, target) in targets.iter().enumerate() {
+            let path = o.out.join(format!("view{view}.png"));
+            sheet::comparison_sheet(target, &before[view], &after[view]).save(&path)?;
+        }
+        println!(
+            "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
+            targets.len(),
+            o.out.display()
+        );
+        if o.save {
+            let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
+            diffsil::io::gltf::save_mesh_glb(&posed, o.out.join("fitted.glb"))?;
+            diffsil::io::save_obj(o.out.join("fitted.obj"), &posed)?;
+            std::fs::write(o.out.join("fitted_pose.json"), fit.pose().to_json(fit.shape()))?;
+            println!("wrote fitted.glb, fitted.obj and fitted_pose.json to {}", o.out.display());
+        }
+    }
+    let backend = fit.renderer().backend_name();
+    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop })
+}
+
+/// CPU time this process has used (user + system), seconds; `None` where `/proc` is missing.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    // Linux reports these in USER_HZ, 100 on every mainstream configuration.
+    Some(ticks / 100.0)
+}
+
+/// The value below which `q` of the sorted `v` lie (nearest rank); NaN when empty.
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let rank = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len());
+    v[rank - 1]
+}
+
+/// Fits every case (a label and its options) and prints each error and the summary.
+fn evaluate(
+    model: &SkinnedMesh,
+    name: &str,
+    o: &Options,
+    what: &str,
+    cases: Vec<(String, Options)>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    println!(
+        "{name}: {what}, {} {:?} views at {}², F = {}, masks {:?}, {}",
+        o.view_count,
+        o.views,
+        o.resolution,
+        o.supersample,
+        o.mask_noise,
+        if o.plain { "plain descent" } else { "fit::fit" }
+    );
+    let (mut errors, mut seconds, mut steps) = (Vec::new(), 0.0, 0u64);
+    let mut height = 0.0;
+    let cpu_before = cpu_seconds();
+    for (label, case) in cases {
+        let outcome = fit_seed(model, &case, false, true)?;
+        println!(
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s",
+            outcome.error_m * 1000.0,
+            outcome.steps,
+            outcome.stop,
+            outcome.seconds
+        );
+        errors.push(outcome.error_m * 1000.0);
+        seconds += outcome.seconds;
+        steps += u64::from(outcome.steps);
+        height = outcome.height_m;
+    }
+    let fits = errors.len() as f64;
+    let cpu = match (cpu_before, cpu_seconds()) {
+        (Some(a), Some(b)) => format!("{:.2}", (b - a) / fits),
+        _ => "n/a".into(),
+    };
+    let limit_mm = 0.02 * height * 1000.0;
+    let failures = errors.iter().filter(|e| **e > limit_mm).count();
+    println!(
+        "summary: median={:.1}mm p90={:.1}mm worst={:.1}mm failures={failures}/{} (above {limit_mm:.0} mm = 2% of \
+         {:.2} m) wall_s_per_fit={:.2} cpu_s_per_fit={cpu} steps_per_fit={:.0}",
+        median(errors.clone()),
+        quantile(&errors, 0.9),
+        errors.iter().copied().fold(0.0, f64::max),
+        errors.len(),
+        height,
+        seconds / fits,
+        steps as f64 / fits
+    );
+    Ok(())
+}
+
+fn ablation(model: &SkinnedMesh, name: &str, o: &Options, seeds: u32) -> Result<(), Box<dyn std::error::Error>> {
+    let method = if o.plain { "plain descent" } else { "fit::fit" };
+    println!(
+        "median per-vertex error (mm) over {seeds} seeds, {name}, {} {:?} views, {} iterations, {method}",
+        o.view_count, o.views, o.iterations
+    );
+    println!("| resolution | F = 1 (no AA) | F = 4 |");
+    println!("|---|---|---|");
+    let mut details = Vec::new();
+    for resolution in [32, 64] {
+        let mut cells = Vec::new();
+        for supersample in [1, 4] {
+            let mut errors = Vec::new();
+            let mut seconds = Vec::new();
+            for seed in 1..=seeds as u64 {
+                let run = Options { resolution, supersample, seed, ..o.clone() };
+                let outcome = fit_seed(model, &run, false, true)?;
+                errors.push(outcome.error_m * 1000.0);
+                seconds.push(outcome.seconds);
+            }
+            let per_seed: Vec<String> = errors.iter().map(|e| format!("{e:.1}")).collect();
+            details.push(format!(
+                "{resolution}², F = {supersample}: seeds 1–{seeds}: {} mm; p90 {:.1}, worst {:.1}; {:.2}–{:.2} s per fit",
+                per_seed.join(", "),
+                quantile(&errors, 0.9),
+                errors.iter().copied().fold(0.0, f64::max),
+                seconds.iter().copied().fold(f64::INFINITY, f64::min),
+                seconds.iter().copied().fold(0.0, f64::max)
+            ));
+            cells.push(format!("{:.1}", median(errors)));
+        }
+        println!("| {resolution}² | {} | {} |", cells[0], cells[1]);
+    }
+    for line in details {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+/// The `--frames` poses of `--motion` and their times: every k-th key time of the clip's channel
+/// with the most keys.
+fn motion_frames(o: &Options, clip: &str) -> Result<Vec<(f32, Pose)>, Box<dyn std::error::Error>> {
+    let path = o.model.as_ref().ok_or("--motion needs --model (a glTF with animations)")?;
+    let (model, _) = load_model(o)?;
+    let clips = diffsil::io::gltf::load_animations(path)?;
+    let animation = clips
+        .iter()
+        .find(|a| a.name == clip)
+        .or_else(|| clip.parse::<usize>().ok().and_then(|k| clips.get(k)))
+        .ok_or_else(|| {
+            let names: Vec<&str> = clips.iter().map(|a| a.name.as_str()).collect();
+            format!("{}: no clip {clip:?} (clips: {names:?}, or an index)", path.display())
+        })?;
+    let times = &animation.channels.iter().max_by_key(|c| c.times.len()).ok_or("the clip has no channels")?.times;
+    let step = (times.len() / o.frames.max(1)).max(1);
+    let mut frames = Vec::new();
+    for &time in times.iter().step_by(step).take(o.frames) {
+        frames.push((time, animation.sample(&model.skeleton, time)?));
+    }
+    Ok(frames)
+}
+
+fn main() {
+    let o = Options::parse();
+    if let Err(e) = run(&o) {
+        eprintln!("fit_pose: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
+    let (model, name) = load_model(o)?;
+    if let Some(seeds) = o.ablation {
+        return ablation(&model, &name, o, seeds);
+    }
+    if let Some(clip) = &o.motion {
+        let poses = motion_frames(o, clip)?;
+        let what = format!("clip {clip}, {} frames", poses.len());
+        let cases = poses
+            .into_iter()
+            .enumerate()
+            .map(|(k, (time, pose))| {
+                (format!("frame {k} (t = {time:.3} s)"), Options { seed: k as u64, truth: Some(pose), ..o.clone() })
+            })
+            .collect();
+        return evaluate(&model, &name, o, &what, cases);
+    }
+    if let Some((first, last)) = o.seeds {
+        let cases = (first..=last).map(|seed| (format!("seed {seed}"), Options { seed, ..o.clone() })).collect();
+        return evaluate(&model, &name, o, &format!("seeds {first}–{last}"), cases);
+    }
+    println!(
+        "{name}: {} vertices, {} triangles, {} joints; {} {:?} views at {}², F = {}, seed {}",
+        model.vertex_count(),
+        model.mesh.triangles().len(),
+        model.joint_count(),
+        o.view_count,
+        o.views,
+        o.resolution,
+        o.supersample,
+        o.seed
+    );
+    let outcome = fit_seed(&model, o, true, false)?;
+    println!(
+        "final: per_vertex_error_mm={:.2} iterations={} seconds={:.3} backend={} model={name}",
+        outcome.error_m * 1000.0,
+        outcome.steps,
+        outcome.seconds,
+        outcome.backend.replace(' ', "_")
+    );
+    Ok(())
+}

@@ -1,0 +1,175 @@
+//! [`fit`]: the recommended fitting method as one call, with documented defaults.
+
+use std::ops::ControlFlow;
+
+use super::{limb_swing_hypotheses, Convergence, Free, PoseFit, Progress, RunReport, Schedule};
+use super::{FitSettings, Stage};
+use crate::pose::skin::{Pose, SkinnedMesh};
+use crate::{Camera, Error, Image, Renderer, Result};
+
+/// What [`fit`] does; `FitOptions::default()` is the recommended method (see the
+/// [module documentation](super) for why each part is there).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Adam steps in all, every starting pose included, when the fit does not converge earlier.
+    /// Default 300.
+    pub steps: u32,
+    /// Adam's learning rate, > 0. Default 0.02.
+    pub learning_rate: f32,
+    /// Self-intersection weight `λ`, ≥ 0. Default 1e-7 ([`FitSettings::lambda`]).
+    pub lambda: f32,
+    /// Pose prior weight `μ`, ≥ 0. Default [`PoseFit::POSE_PRIOR`] (1e-3).
+    pub pose_prior: f32,
+    /// Leg stride of the extra starting poses, radians (0: none). Default 0.3
+    /// ([`limb_swing_hypotheses`]).
+    pub leg_stride: f32,
+    /// Arm swing of the extra starting poses, radians (0: none). Default 0
+    /// ([`limb_swing_hypotheses`]).
+    pub arm_swing: f32,
+    /// Blur of the coarsest stage, fraction of the image height; 0 fits without blur (and
+    /// without hypotheses, which are compared on blurred silhouettes). Default
+    /// [`Schedule::COARSE_BLUR`].
+    pub coarse_blur: f32,
+    /// Early stop of the last stage; `None` runs every step. Default
+    /// [`Convergence::default`] (the last 25 steps' mean energy not 0.5% below the 25 before).
+    pub convergence: Option<Convergence>,
+    /// Fit the joints' rotation offsets. Default true.
+    pub fit_pose: bool,
+    /// Fit the global orientation and the root translation. Default true.
+    pub fit_global: bool,
+    /// Fit the shape coefficients `β` (models with morph targets). Default false: a pose-only
+    /// fit keeps the initial shape.
+    pub fit_shape: bool,
+    /// Shape prior weight `ν`, ≥ 0 ([`PoseFit::set_shape_prior`]). Default
+    /// [`PoseFit::SHAPE_PRIOR`].
+    pub shape_prior: f32,
+    /// The shape to start from, one `β` per morph target; empty for all zero. Default empty.
+    pub initial_shape: Vec<f32>,
+    /// The pose to start from (and to keep where a part is not fitted); `None`: the rest pose.
+    /// Default `None`.
+    pub initial: Option<Pose>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            steps: 300,
+            learning_rate: 0.02,
+            lambda: 1e-7,
+            pose_prior: PoseFit::POSE_PRIOR,
+            leg_stride: 0.3,
+            arm_swing: 0.0,
+            coarse_blur: Schedule::COARSE_BLUR,
+            convergence: Some(Convergence::default()),
+            fit_pose: true,
+            fit_global: true,
+            fit_shape: false,
+            shape_prior: PoseFit::SHAPE_PRIOR,
+            initial_shape: Vec::new(),
+            initial: None,
+        }
+    }
+}
+
+impl FitOptions {
+    /// The schedule and the starting poses [`fit`] uses for `model`.
+    ///
+    /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
+    /// top of the initial pose (its joint offsets added to each), and the schedule is
+    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur`. Without blur: one
+    /// unblurred stage from the initial pose. Without `fit_pose`, the initial pose alone.
+    pub fn plan(&self, model: &SkinnedMesh) -> Result<(Schedule, Vec<Pose>)> {
+        let initial = self.initial.clone().unwrap_or_else(|| Pose::rest(model.joint_count()));
+        initial.validate(model.joint_count())?;
+        if !(self.coarse_blur.is_finite() && (0.0..=1.0).contains(&self.coarse_blur)) {
+            return Err(Error::InvalidSettings(format!(
+                "coarse blur {}: use a fraction of the image height in [0, 1]",
+                self.coarse_blur
+            )));
+        }
+        if !(self.leg_stride.is_finite() && self.arm_swing.is_finite()) {
+            return Err(Error::InvalidSettings("the leg stride and arm swing must be finite".into()));
+        }
+        if self.coarse_blur == 0.0 {
+            let stages = vec![Stage { blur: 0.0, steps: self.steps }];
+            return Ok((Schedule { hypothesis_steps: 0, stages, convergence: self.convergence }, vec![initial]));
+        }
+        let hypotheses = if self.fit_pose {
+            limb_swing_hypotheses(model, self.leg_stride, self.arm_swing)?
+                .into_iter()
+                .map(|h| {
+                    let joint_rotations =
+                        h.joint_rotations.iter().zip(&initial.joint_rotations).map(|(a, b)| *a + *b).collect();
+                    Pose { joint_rotations, ..initial.clone() }
+                })
+                .collect()
+        } else {
+            vec![initial]
+        };
+        let mut schedule = Schedule::coarse_to_fine(self.steps, hypotheses.len());
+        let scale = self.coarse_blur / Schedule::COARSE_BLUR;
+        for stage in &mut schedule.stages {
+            stage.blur *= scale;
+        }
+        schedule.convergence = self.convergence;
+        Ok((schedule, hypotheses))
+    }
+}
+
+/// A finished [`fit`]: the fit (its pose, vertices, renders) and what the run did.
+#[derive(Debug)]
+pub struct Fitted {
+    /// The fit at its final pose; [`PoseFit::pose`] is the result.
+    pub fit: PoseFit,
+    /// Steps, hypotheses' energies, the final energy and why it stopped.
+    pub report: RunReport,
+}
+
+/// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
+/// recommended method: `E = E_sl + λ·E_spt + μ·E_prior + ν·E_shape` minimised with Adam, coarse to fine,
+/// from several starting poses, each part switchable and every setting in `options`
+/// (`FitOptions::default()` is the method's). `on_step` sees the fit and its [`Progress`] after
+/// every step; returning [`ControlFlow::Break`] cancels the fit (e.g. from an `AtomicBool` a
+/// user interface sets), which then ends at its current pose with
+/// [`Stop::Cancelled`](super::Stop::Cancelled).
+///
+/// ```
+/// use std::ops::ControlFlow;
+/// use diffsil::pose::fit::{fit, framing_cameras, FitOptions};
+/// use diffsil::pose::figure::builtin_figure;
+/// use diffsil::{RenderSettings, Renderer};
+///
+/// let model = builtin_figure();
+/// let cameras = framing_cameras(&model.mesh, 2, 16);
+/// let mut renderer = Renderer::new(RenderSettings::default())?;
+/// let targets = renderer.render(&model.mesh, &cameras)?.images().to_vec();
+/// let options = FitOptions { steps: 12, ..FitOptions::default() };
+/// let fitted = fit(model, cameras, targets, renderer, &options, |_, _| ControlFlow::Continue(()))?;
+/// assert!(fitted.report.steps <= 12);
+/// # Ok::<(), diffsil::Error>(())
+/// ```
+pub fn fit(
+    model: SkinnedMesh,
+    cameras: Vec<Camera>,
+    targets: Vec<Image>,
+    renderer: Renderer,
+    options: &FitOptions,
+    on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
+) -> Result<Fitted> {
+    if !(options.pose_prior.is_finite() && options.pose_prior >= 0.0) {
+        return Err(Error::InvalidSettings(format!("need a non-negative pose prior, got {}", options.pose_prior)));
+    }
+    let (schedule, hypotheses) = options.plan(&model)?;
+    let settings = FitSettings {
+        initial: hypotheses.first().cloned(),
+        learning_rate: options.learning_rate,
+        lambda: options.lambda,
+        initial_shape: options.initial_shape.clone(),
+    };
+    let mut fit = PoseFit::new(model, cameras, targets, renderer, settings)?;
+    fit.set_pose_prior(options.pose_prior)?;
+    fit.set_shape_prior(options.shape_prior)?;
+    fit.set_free(Free { joints: options.fit_pose, global: options.fit_global, shape: options.fit_shape });
+    let report = fit.run(&schedule, &hypotheses, on_step)?;
+    Ok(Fitted { fit, report })
+}
