@@ -52,6 +52,10 @@ fn flip_changes_about_the_fraction_asked_for() {
 #[path = "../../examples/fit_pose/main.rs"]
 mod example;
 
+#[path = "../../examples/fit_pose/user_data.rs"]
+#[allow(dead_code)]
+mod user_data;
+
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
@@ -215,4 +219,26 @@ fn bad_user_data_are_clear_errors() {
     assert!(e.contains("--cameras"), "{e}");
     let e = example::Options::try_parse_from(["fit_pose", "--cameras", "c.json"]).unwrap_err().to_string();
     assert!(e.contains("--targets"), "{e}");
+}
+
+#[test]
+fn masks_load_as_coverage_or_thresholded() {
+    let (masks, cameras) = write_user_data();
+    let cameras = user_data::load_cameras(&cameras).unwrap();
+    assert_eq!(cameras.len(), 3);
+    assert!(cameras.iter().all(|c| (c.width, c.height, c.far) == (SIZE.0, SIZE.1, 100.0) && c.near == 0.01));
+    let soft = user_data::load_targets(&masks, &cameras, None).unwrap();
+    let hard = user_data::load_targets(&masks, &cameras, Some(0.5)).unwrap();
+    let edge = |image: &diffsil::Image| image.data().iter().filter(|v| **v > 0.0 && **v < 1.0).count();
+    assert!(edge(&soft[0]) > 10, "anti-aliased edges are kept as coverage");
+    assert_eq!(edge(&hard[0]), 0, "thresholded: 0 or 1 only");
+    for (s, h) in soft[0].data().iter().zip(hard[0].data()) {
+        assert_eq!(*h, if *s > 0.5 { 1.0 } else { 0.0 });
+    }
+    let (iou, energy) = user_data::agreement(&soft[0], &soft[0]);
+    assert_eq!((iou, energy), (1.0, 0.0));
+    let (iou, energy) = user_data::agreement(&hard[0], &diffsil::Image::filled(SIZE.0, SIZE.1, 0.0));
+    assert_eq!(iou, 0.0);
+    let ones = hard[0].data().iter().filter(|v| **v == 1.0).count() as f64;
+    assert!((energy - ones / f64::from(SIZE.0 * SIZE.1)).abs() < 1e-12);
 }
