@@ -7,6 +7,7 @@
 //! cargo run --release --example fit_pose -- --seeds 31-80         # median, p90, worst, failures
 //! cargo run --release --example fit_pose -- --seeds 31-50 --mask-noise dilate
 //! cargo run --release --example fit_pose -- --ablation 10         # paper Table 2 over 10 seeds
+//! cargo run --release --example fit_pose -- --targets a.png,b.png --cameras cameras.json --save
 //! ```
 //!
 //! A random plausible ground-truth pose is drawn from the seed (joint limits from the joints'
@@ -18,12 +19,17 @@
 //! or early stop instead (the paper's plain descent). Pictures go to `--out`: per view,
 //! target | fitted | difference, before (top) and after (bottom). The last line is
 //! machine-readable.
+//!
+//! With `--targets` and `--cameras` the masks and cameras are the user's own (see `user_data.rs`
+//! for the JSON format): the model is fitted to them from its rest pose, with no ground truth, so
+//! the report is each view's silhouette IoU and energy before and after.
 
 mod masks;
 mod sheet;
+mod user_data;
 
 use std::ops::ControlFlow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Parser;
@@ -63,7 +69,7 @@ the steps with a blur of 6% of the image height; the one with the lowest unblurr
 continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of 300) unblurred, ending early
 after 30 steps without a 1% lower energy. Same method and settings at every resolution and F."
 )]
-struct Options {
+pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in figure]
     #[arg(long, value_name = "PATH")]
     model: Option<PathBuf>,
@@ -148,6 +154,21 @@ struct Options {
     /// this many
     #[arg(long, value_name = "N", default_value_t = 12)]
     frames: usize,
+    /// Your own masks, one PNG per camera of `--cameras` in the same order, comma-separated
+    /// (white = the body); fits `--model` to them instead of to a random pose's silhouettes
+    /// (`--resolution`, `--views`, `--view-count` and `--seed` then do not apply)
+    #[arg(long, value_name = "A.png,B.png,...", value_delimiter = ',', num_args = 1.., requires = "cameras",
+          conflicts_with_all = ["seeds", "ablation", "motion"])]
+    targets: Vec<PathBuf>,
+    /// Your calibrated cameras for `--targets`: a JSON list of OpenCV cameras
+    /// {"width", "height", "K": [[fx,0,cx],[0,fy,cy],[0,0,1]], "R": 3×3 rows, "t": [x,y,z]}
+    /// (world → camera; optional "near", "far")
+    #[arg(long, value_name = "PATH", requires = "targets")]
+    cameras: Option<PathBuf>,
+    /// Harden `--targets`: 1 where a pixel's value is above X, else 0 [default: keep values in
+    /// [0, 1] as coverage]
+    #[arg(long, value_name = "X", value_parser = finite, requires = "targets")]
+    threshold: Option<f32>,
     /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
     #[arg(skip)]
     truth: Option<Pose>,
@@ -167,7 +188,7 @@ fn seed_range(value: &str) -> Result<(u64, u64), String> {
     }
 }
 
-fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
+pub fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
     match &o.model {
         None => Ok((builtin_figure(), "builtin-figure".into())),
         Some(path) => match load_gltf(path)? {
@@ -312,15 +333,90 @@ fn fit_seed(
             o.out.display()
         );
         if o.save {
-            let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
-            diffsil::io::gltf::save_mesh_glb(&posed, o.out.join("fitted.glb"))?;
-            diffsil::io::save_obj(o.out.join("fitted.obj"), &posed)?;
-            std::fs::write(o.out.join("fitted_pose.json"), fit.pose().to_json(fit.shape()))?;
-            println!("wrote fitted.glb, fitted.obj and fitted_pose.json to {}", o.out.display());
+            save_fit(model, &fit, &o.out)?;
         }
     }
     let backend = fit.renderer().backend_name();
     Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop })
+}
+
+/// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
+/// (`fitted_pose.json`) to `out`.
+fn save_fit(model: &SkinnedMesh, fit: &PoseFit, out: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
+    diffsil::io::gltf::save_mesh_glb(&posed, out.join("fitted.glb"))?;
+    diffsil::io::save_obj(out.join("fitted.obj"), &posed)?;
+    std::fs::write(out.join("fitted_pose.json"), fit.pose().to_json(fit.shape()))?;
+    println!("wrote fitted.glb, fitted.obj and fitted_pose.json to {}", out.display());
+    Ok(())
+}
+
+/// What a fit to the user's masks measured: per view, the silhouette IoU and energy
+/// ([`user_data::agreement`]) at the start (rest pose) and at the end.
+pub struct DataOutcome {
+    /// Per view (IoU, E_sl) of the rest pose.
+    pub before: Vec<(f64, f64)>,
+    /// Per view (IoU, E_sl) of the fitted pose.
+    pub after: Vec<(f64, f64)>,
+    /// The fit's final energy E (unblurred, all terms).
+    pub energy: f64,
+    /// Adam steps taken.
+    pub steps: u32,
+    /// Wall-clock seconds of the fit.
+    pub seconds: f64,
+}
+
+/// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
+/// `--save`, the fitted mesh and pose to `--out`.
+pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Box<dyn std::error::Error>> {
+    let path = o.cameras.as_ref().ok_or("--targets needs --cameras")?;
+    let cameras = user_data::load_cameras(path)?;
+    let targets = user_data::load_targets(&o.targets, &cameras, o.threshold)?;
+    if o.shape && model.shape_count() == 0 {
+        return Err("--shape needs a model with morph targets".into());
+    }
+    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
+    let before = renderer.render(&rest_mesh, &cameras)?.images().to_vec();
+    let options = fit_options(o);
+    let (schedule, hypotheses) = options.plan(model)?;
+    let total = schedule.total_steps(hypotheses.len());
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
+    let start = Instant::now();
+    let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |_, progress| {
+        bar.set_message(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette));
+        bar.inc(1);
+        match o.time_limit {
+            Some(limit) if start.elapsed().as_secs_f64() > limit => ControlFlow::Break(()),
+            _ => ControlFlow::Continue(()),
+        }
+    })?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish();
+    let (mut fit, run) = (fitted.fit, fitted.report);
+    println!("stopped: {:?} after {} steps", run.stop, run.steps);
+    let after = fit.render()?;
+    std::fs::create_dir_all(&o.out)?;
+    let mut outcome =
+        DataOutcome { before: Vec::new(), after: Vec::new(), energy: run.energy, steps: run.steps, seconds };
+    for (view, target) in targets.iter().enumerate() {
+        sheet::comparison_sheet(target, &before[view], &after[view]).save(o.out.join(format!("view{view}.png")))?;
+        outcome.before.push(user_data::agreement(&before[view], target));
+        outcome.after.push(user_data::agreement(&after[view], target));
+        let ((iou0, e0), (iou1, e1)) = (outcome.before[view], outcome.after[view]);
+        println!("view {view} ({}): IoU {iou0:.3} -> {iou1:.3}, E_sl {e0:.2e} -> {e1:.2e}", o.targets[view].display());
+    }
+    println!(
+        "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
+        targets.len(),
+        o.out.display()
+    );
+    if o.save {
+        save_fit(model, &fit, &o.out)?;
+    }
+    Ok(outcome)
 }
 
 /// CPU time this process has used (user + system), seconds; `None` where `/proc` is missing.
@@ -461,6 +557,7 @@ fn motion_frames(o: &Options, clip: &str) -> Result<Vec<(f32, Pose)>, Box<dyn st
     Ok(frames)
 }
 
+/// Runs the command line; a failure is reported on stderr with exit status 1.
 fn main() {
     let o = Options::parse();
     if let Err(e) = run(&o) {
@@ -469,7 +566,8 @@ fn main() {
     }
 }
 
-fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
+/// What `main` does for the options `o`.
+pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
     let (model, name) = load_model(o)?;
     if let Some(seeds) = o.ablation {
         return ablation(&model, &name, o, seeds);
@@ -485,6 +583,19 @@ fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect();
         return evaluate(&model, &name, o, &what, cases);
+    }
+    if !o.targets.is_empty() {
+        let outcome = fit_user_data(&model, o)?;
+        let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / v.len() as f64;
+        println!(
+            "final: mean_iou_before={:.3} mean_iou_after={:.3} energy={:.3e} iterations={} seconds={:.3} model={name}",
+            mean(&outcome.before),
+            mean(&outcome.after),
+            outcome.energy,
+            outcome.steps,
+            outcome.seconds
+        );
+        return Ok(());
     }
     if let Some((first, last)) = o.seeds {
         let cases = (first..=last).map(|seed| (format!("seed {seed}"), Options { seed, ..o.clone() })).collect();

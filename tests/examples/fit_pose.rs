@@ -44,3 +44,201 @@ fn flip_changes_about_the_fraction_asked_for() {
     assert_eq!(flipped, apply(MaskNoise::Flip, &image, 0.02, 7), "same seed, same pixels");
     assert_ne!(flipped, apply(MaskNoise::Flip, &image, 0.02, 8));
 }
+
+// The user's own masks and cameras (`--targets`, `--cameras`): written here from a known posed
+// figure seen by three OpenCV cameras, then fitted through the example's command line.
+
+#[allow(dead_code)]
+#[path = "../../examples/fit_pose/main.rs"]
+mod example;
+
+#[path = "../../examples/fit_pose/user_data.rs"]
+#[allow(dead_code)]
+mod user_data;
+
+use std::path::{Path, PathBuf};
+
+use clap::Parser;
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::random_pose;
+use diffsil::pose::skin::Pose;
+use diffsil::{Camera, Mesh, RenderSettings, Renderer, Vec3};
+use serde_json::{json, Value};
+
+/// Width and height of the test's masks (not square, so that a swap shows).
+const SIZE: (u32, u32) = (40, 32);
+
+/// Three OpenCV cameras (`K`, `R` rows, `t`, as JSON) on a ring around `mesh`, looking at its
+/// centre, framing its height in about 3/4 of the image height.
+fn opencv_cameras(mesh: &Mesh) -> Vec<Value> {
+    let (lo, hi) = mesh
+        .positions()
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (centre, size) = ((lo + hi) / 2.0, (hi - lo).max_element());
+    let distance = 3.0 * size;
+    let focal = 0.75 * SIZE.1 as f32 * distance / size;
+    (0..3)
+        .map(|k| {
+            let azimuth = (k as f32 * 120.0 + 20.0).to_radians();
+            let eye = centre + distance * Vec3::new(azimuth.sin(), 0.3, azimuth.cos()).normalize();
+            // OpenCV camera axes: z forward, x right, y down.
+            let z = (centre - eye).normalize();
+            let x = z.cross(Vec3::Y).normalize();
+            let y = z.cross(x);
+            let t = [-x.dot(eye), -y.dot(eye), -z.dot(eye)];
+            json!({
+                "width": SIZE.0, "height": SIZE.1,
+                "K": [[focal, 0.0, (SIZE.0 as f32 - 1.0) / 2.0 + 0.7], [0.0, focal * 1.05, (SIZE.1 as f32 - 1.0) / 2.0], [0.0, 0.0, 1.0]],
+                "R": [x.to_array(), y.to_array(), z.to_array()],
+                "t": t,
+                "far": 100.0,
+            })
+        })
+        .collect()
+}
+
+/// Writes the masks of the built-in figure in a random pose and `cameras.json` into a fresh
+/// folder; returns the mask paths and the JSON path.
+fn write_user_data() -> (Vec<PathBuf>, PathBuf) {
+    let dir = crate::common::files::temp_dir();
+    let model = builtin_figure();
+    let rest =
+        Mesh::with_topology(model.skin(&Pose::rest(model.joint_count())).unwrap(), model.mesh.topology().clone())
+            .unwrap();
+    let specs = opencv_cameras(&rest);
+    let cameras: Vec<Camera> = specs
+        .iter()
+        .map(|c| {
+            let m = |key: &str| serde_json::from_value::<[[f32; 3]; 3]>(c[key].clone()).unwrap();
+            let t = serde_json::from_value::<[f32; 3]>(c["t"].clone()).unwrap();
+            Camera::from_opencv(m("K"), m("R"), t, SIZE.0, SIZE.1).unwrap()
+        })
+        .collect();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    let posed = Mesh::with_topology(model.skin(&truth).unwrap(), model.mesh.topology().clone()).unwrap();
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let images = renderer.render(&posed, &cameras).unwrap().images().to_vec();
+    let masks: Vec<PathBuf> = images
+        .iter()
+        .enumerate()
+        .map(|(k, image)| {
+            assert!(image.data().iter().filter(|v| **v > 0.5).count() > 40, "view {k} sees the figure");
+            let path = dir.join(format!("mask{k}.png"));
+            diffsil::io::save_png(image, &path).unwrap();
+            path
+        })
+        .collect();
+    let json = dir.join("cameras.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&specs).unwrap()).unwrap();
+    (masks, json)
+}
+
+fn user_options(masks: &[PathBuf], cameras: &Path, extra: &[&str]) -> example::Options {
+    let list = masks.iter().map(|p| p.to_str().unwrap()).collect::<Vec<_>>().join(",");
+    let args = ["fit_pose", "--targets", &list, "--cameras", cameras.to_str().unwrap()];
+    example::Options::try_parse_from(args.iter().copied().chain(extra.iter().copied())).unwrap()
+}
+
+#[test]
+fn fits_the_users_masks_and_cameras_and_saves_the_result() {
+    let (masks, cameras) = write_user_data();
+    let out = crate::common::files::temp_dir();
+    let o = user_options(&masks, &cameras, &["--save", "--iterations", "60", "--out", out.to_str().unwrap()]);
+    let (model, _) = example::load_model(&o).unwrap();
+    let outcome = example::fit_user_data(&model, &o).unwrap();
+    assert_eq!((outcome.before.len(), outcome.after.len()), (3, 3));
+    let mean = |v: &[(f64, f64)]| (v.iter().map(|x| x.0).sum::<f64>() / 3.0, v.iter().map(|x| x.1).sum::<f64>() / 3.0);
+    let ((iou0, e0), (iou1, e1)) = (mean(&outcome.before), mean(&outcome.after));
+    assert!(iou1 > iou0 + 0.05 && iou1 > 0.75, "mean IoU {iou0:.3} -> {iou1:.3}");
+    assert!(e1 < 0.6 * e0, "mean E_sl {e0:.3e} -> {e1:.3e}");
+    assert!(outcome.energy.is_finite() && outcome.steps > 0);
+    for k in 0..3 {
+        assert!(out.join(format!("view{k}.png")).is_file());
+    }
+    let obj = diffsil::io::load_obj(out.join("fitted.obj")).unwrap();
+    assert_eq!(obj.positions().len(), model.vertex_count());
+    let glb = match diffsil::io::gltf::load_gltf(out.join("fitted.glb")).unwrap() {
+        diffsil::io::gltf::Model::Static(mesh) => mesh,
+        diffsil::io::gltf::Model::Skinned(skinned) => skinned.mesh,
+    };
+    assert_eq!(glb.positions().len(), model.vertex_count());
+    let (pose, betas) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
+    assert!(betas.is_empty());
+    // The saved pose is the fitted one: skinning it gives the saved meshes' vertices (the OBJ
+    // reader may order them differently), and it is not the rest pose.
+    let skinned = model.skin(&pose).unwrap();
+    for mesh in [&obj, &glb] {
+        for b in mesh.positions() {
+            let nearest = skinned.iter().map(|a| (*a - *b).length()).fold(f32::MAX, f32::min);
+            assert!(nearest < 1e-4, "{b} is {nearest} from the skinned pose");
+        }
+    }
+    assert_ne!(pose, Pose::rest(model.joint_count()));
+    // The command line runs the same path to the end.
+    example::run(&o).unwrap();
+}
+
+#[test]
+fn bad_user_data_are_clear_errors() {
+    let (masks, cameras) = write_user_data();
+    let error = |o: &example::Options| example::run(o).unwrap_err().to_string();
+
+    let e = error(&user_options(&masks[..2], &cameras, &[]));
+    assert!(e.contains("2 masks for 3 cameras"), "{e}");
+
+    let mut specs: Vec<Value> = serde_json::from_str(&std::fs::read_to_string(&cameras).unwrap()).unwrap();
+    specs[1]["width"] = json!(SIZE.0 + 1);
+    let wrong_size = cameras.with_file_name("wrong_size.json");
+    std::fs::write(&wrong_size, serde_json::to_string(&specs).unwrap()).unwrap();
+    let e = error(&user_options(&masks, &wrong_size, &[]));
+    assert!(e.contains("mask1.png") && e.contains("40×32") && e.contains("camera 1 renders 41×32"), "{e}");
+
+    let malformed = cameras.with_file_name("malformed.json");
+    std::fs::write(&malformed, "[{\"width\": 40,").unwrap();
+    let e = error(&user_options(&masks, &malformed, &[]));
+    assert!(e.contains("malformed.json") && e.contains("not valid JSON"), "{e}");
+
+    for (key, value, says) in [
+        ("K", json!([[10.0, 1.0, 20.0], [0.0, 10.0, 16.0], [0.0, 0.0, 1.0]]), "no skew"),
+        ("R", json!([[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), "orthonormal"),
+        ("R", json!([[1.0, 0.0], [0.0, 1.0]]), "\"R\" must be 3 rows of 3 numbers"),
+        ("t", json!([0.0, "x", 1.0]), "\"t\" must be 3 numbers"),
+    ] {
+        let mut bad = specs.clone();
+        bad[1]["width"] = json!(SIZE.0);
+        bad[2][key] = value;
+        let path = cameras.with_file_name("bad.json");
+        std::fs::write(&path, serde_json::to_string(&bad).unwrap()).unwrap();
+        let e = error(&user_options(&masks, &path, &[]));
+        assert!(e.contains("bad.json: camera 2:") && e.contains(says), "{key}: {e}");
+    }
+
+    // The two options come together.
+    let e = example::Options::try_parse_from(["fit_pose", "--targets", "a.png"]).unwrap_err().to_string();
+    assert!(e.contains("--cameras"), "{e}");
+    let e = example::Options::try_parse_from(["fit_pose", "--cameras", "c.json"]).unwrap_err().to_string();
+    assert!(e.contains("--targets"), "{e}");
+}
+
+#[test]
+fn masks_load_as_coverage_or_thresholded() {
+    let (masks, cameras) = write_user_data();
+    let cameras = user_data::load_cameras(&cameras).unwrap();
+    assert_eq!(cameras.len(), 3);
+    assert!(cameras.iter().all(|c| (c.width, c.height, c.far) == (SIZE.0, SIZE.1, 100.0) && c.near == 0.01));
+    let soft = user_data::load_targets(&masks, &cameras, None).unwrap();
+    let hard = user_data::load_targets(&masks, &cameras, Some(0.5)).unwrap();
+    let edge = |image: &diffsil::Image| image.data().iter().filter(|v| **v > 0.0 && **v < 1.0).count();
+    assert!(edge(&soft[0]) > 10, "anti-aliased edges are kept as coverage");
+    assert_eq!(edge(&hard[0]), 0, "thresholded: 0 or 1 only");
+    for (s, h) in soft[0].data().iter().zip(hard[0].data()) {
+        assert_eq!(*h, if *s > 0.5 { 1.0 } else { 0.0 });
+    }
+    let (iou, energy) = user_data::agreement(&soft[0], &soft[0]);
+    assert_eq!((iou, energy), (1.0, 0.0));
+    let (iou, energy) = user_data::agreement(&hard[0], &diffsil::Image::filled(SIZE.0, SIZE.1, 0.0));
+    assert_eq!(iou, 0.0);
+    let ones = hard[0].data().iter().filter(|v| **v == 1.0).count() as f64;
+    assert!((energy - ones / f64::from(SIZE.0 * SIZE.1)).abs() < 1e-12);
+}

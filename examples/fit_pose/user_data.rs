@@ -1,0 +1,142 @@
+//! The user's own data: calibrated cameras from a JSON file (OpenCV model) and one PNG mask per
+//! camera, checked against each other, and how well a silhouette agrees with its mask.
+//!
+//! `cameras.json` is a list with one object per camera, in the order of the masks:
+//!
+//! ```text
+//! [{"width": 640, "height": 480,
+//!   "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],
+//!   "R": [[r00, r01, r02], [r10, r11, r12], [r20, r21, r22]],
+//!   "t": [tx, ty, tz],
+//!   "near": 0.01, "far": 1000}, ...]
+//! ```
+//!
+//! `K`, `R` (world → camera rotation, rows) and `t` as OpenCV's `calibrateCamera`/`solvePnP` give
+//! them (pixel centres at integer coordinates; camera x right, y down, z forward), passed to
+//! `diffsil::Camera::from_opencv`; `near` and `far` are optional (default 0.01 and 1000, in the
+//! units of `t`).
+
+use std::path::{Path, PathBuf};
+
+use diffsil::io::{load_png_target, TargetMode};
+use diffsil::{Camera, Image};
+use serde_json::Value;
+
+/// Three numbers from `value` (a list of 3), if it is one.
+fn vector3(value: &Value) -> Option<[f32; 3]> {
+    let row = value.as_array().filter(|r| r.len() == 3)?;
+    let mut out = [0.0; 3];
+    for (x, out_x) in row.iter().zip(&mut out) {
+        *out_x = x.as_f64()? as f32;
+    }
+    Some(out)
+}
+
+/// A 3 × 3 matrix (a list of 3 rows of 3 numbers) from `value`; `what` names it in errors.
+fn matrix(value: Option<&Value>, what: &str) -> Result<[[f32; 3]; 3], String> {
+    let value = value.ok_or_else(|| format!("missing \"{what}\""))?;
+    let rows = value.as_array().filter(|r| r.len() == 3);
+    match rows.map(|r| [vector3(&r[0]), vector3(&r[1]), vector3(&r[2])]) {
+        Some([Some(a), Some(b), Some(c)]) => Ok([a, b, c]),
+        _ => Err(format!("\"{what}\" must be 3 rows of 3 numbers, got {value}")),
+    }
+}
+
+/// A positive pixel count from `value`.
+fn pixels(value: Option<&Value>, what: &str) -> Result<u32, String> {
+    let value = value.ok_or_else(|| format!("missing \"{what}\""))?;
+    value
+        .as_u64()
+        .and_then(|v| u32::try_from(v).ok())
+        .filter(|v| *v > 0)
+        .ok_or_else(|| format!("\"{what}\" must be a positive whole number of pixels, got {value}"))
+}
+
+/// One camera of the list.
+fn camera(value: &Value) -> Result<Camera, String> {
+    let object = value.as_object().ok_or_else(|| format!("each camera must be an object, got {value}"))?;
+    for key in object.keys() {
+        if !["width", "height", "K", "R", "t", "near", "far"].contains(&key.as_str()) {
+            return Err(format!("unknown key \"{key}\" (keys: width, height, K, R, t, near, far)"));
+        }
+    }
+    let (width, height) = (pixels(object.get("width"), "width")?, pixels(object.get("height"), "height")?);
+    let k = matrix(object.get("K"), "K")?;
+    let r = matrix(object.get("R"), "R")?;
+    let t = object.get("t").ok_or("missing \"t\"")?;
+    let t = vector3(t).ok_or_else(|| format!("\"t\" must be 3 numbers, got {t}"))?;
+    let mut camera = Camera::from_opencv(k, r, t, width, height).map_err(|e| e.to_string())?;
+    for (key, field) in [("near", &mut camera.near), ("far", &mut camera.far)] {
+        if let Some(value) = object.get(key) {
+            *field = value.as_f64().ok_or_else(|| format!("\"{key}\" must be a number, got {value}"))? as f32;
+        }
+    }
+    camera.validate().map_err(|e| e.to_string())?;
+    Ok(camera)
+}
+
+/// The cameras of the JSON file at `path`; errors name the file and the camera.
+pub fn load_cameras(path: &Path) -> Result<Vec<Camera>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let json: Value = serde_json::from_str(&text).map_err(|e| format!("{}: not valid JSON: {e}", path.display()))?;
+    let list = json.as_array().ok_or_else(|| {
+        format!(
+            "{}: expected a JSON list of cameras [{{\"width\", \"height\", \"K\", \"R\", \"t\"}}, ...]",
+            path.display()
+        )
+    })?;
+    if list.is_empty() {
+        return Err(format!("{}: the list of cameras is empty", path.display()));
+    }
+    list.iter()
+        .enumerate()
+        .map(|(i, value)| camera(value).map_err(|e| format!("{}: camera {i}: {e}", path.display())))
+        .collect()
+}
+
+/// The masks at `paths`, one per camera and of its size; `threshold` hardens them (see
+/// `TargetMode`), otherwise a pixel's value in [0, 1] is its coverage.
+pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32>) -> Result<Vec<Image>, String> {
+    if paths.len() != cameras.len() {
+        return Err(format!(
+            "{} masks for {} cameras: --targets needs one mask per camera of --cameras, in the same order",
+            paths.len(),
+            cameras.len()
+        ));
+    }
+    let mode = threshold.map_or(TargetMode::Coverage, TargetMode::Threshold);
+    paths
+        .iter()
+        .zip(cameras)
+        .enumerate()
+        .map(|(i, (path, camera))| {
+            let image = load_png_target(path, mode).map_err(|e| format!("{}: {e}", path.display()))?;
+            if (image.width(), image.height()) != (camera.width, camera.height) {
+                return Err(format!(
+                    "{}: the mask is {}×{} but camera {i} renders {}×{} (width × height)",
+                    path.display(),
+                    image.width(),
+                    image.height(),
+                    camera.width,
+                    camera.height
+                ));
+            }
+            Ok(image)
+        })
+        .collect()
+}
+
+/// How a rendered silhouette agrees with its target: the IoU of the two masks thresholded at
+/// 0.5 (1 when both are empty) and the mean squared difference over the pixels (E_sl of one
+/// view, unblurred).
+pub fn agreement(rendered: &Image, target: &Image) -> (f64, f64) {
+    let (mut both, mut either, mut squared) = (0usize, 0usize, 0.0f64);
+    for (r, t) in rendered.data().iter().zip(target.data()) {
+        let (a, b) = (*r > 0.5, *t > 0.5);
+        both += usize::from(a && b);
+        either += usize::from(a || b);
+        squared += f64::from(r - t).powi(2);
+    }
+    let iou = if either == 0 { 1.0 } else { both as f64 / either as f64 };
+    (iou, squared / target.data().len().max(1) as f64)
+}
