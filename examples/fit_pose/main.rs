@@ -117,6 +117,10 @@ struct Options {
     /// with the pose (needs a model with morph targets)
     #[arg(long)]
     shape: bool,
+    /// Fit an inflation of the body along its normals beside the pose (FitOptions::fit_inflation):
+    /// on, off, or the library's default
+    #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
+    inflation: Option<bool>,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -206,6 +210,7 @@ fn fit_options(o: &Options) -> FitOptions {
         convergence: if o.no_early_stop { None } else { Some(Convergence::default()) },
         fit_global: !o.no_global,
         fit_shape: o.shape,
+        fit_inflation: o.inflation.unwrap_or(defaults.fit_inflation),
         ..defaults
     }
 }

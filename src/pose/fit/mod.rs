@@ -70,12 +70,14 @@
 
 mod cameras;
 mod descent;
+mod inflation;
 mod method;
 mod poses;
 mod schedule;
 
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
 pub use descent::{FitSettings, FitState, Free, PoseFit, StepReport};
+pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};
