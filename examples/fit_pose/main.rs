@@ -121,6 +121,9 @@ struct Options {
     /// on, off, or the library's default
     #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
     inflation: Option<bool>,
+    /// Step of the inflation per Adam step, fraction of the model's height
+    #[arg(long, value_name = "X", default_value_t = FitOptions::INFLATION_RATE, value_parser = finite)]
+    inflation_rate: f32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -211,6 +214,7 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_global: !o.no_global,
         fit_shape: o.shape,
         fit_inflation: o.inflation.unwrap_or(defaults.fit_inflation),
+        inflation_rate: o.inflation_rate,
         ..defaults
     }
 }
