@@ -123,6 +123,13 @@ pub struct Options {
     /// with the pose (needs a model with morph targets)
     #[arg(long)]
     shape: bool,
+    /// Fit an inflation of the body along its normals beside the pose (FitOptions::fit_inflation):
+    /// on, off, or the library's default
+    #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
+    inflation: Option<bool>,
+    /// Step of the inflation per Adam step, fraction of the model's height
+    #[arg(long, value_name = "X", default_value_t = FitOptions::INFLATION_RATE, value_parser = finite)]
+    inflation_rate: f32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -227,6 +234,8 @@ fn fit_options(o: &Options) -> FitOptions {
         convergence: if o.no_early_stop { None } else { Some(Convergence::default()) },
         fit_global: !o.no_global,
         fit_shape: o.shape,
+        fit_inflation: o.inflation.unwrap_or(defaults.fit_inflation),
+        inflation_rate: o.inflation_rate,
         ..defaults
     }
 }

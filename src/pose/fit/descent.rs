@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::inflation;
 use crate::loss::GaussianBlur;
 use crate::optim::Adam;
 use crate::pose::self_intersection::SelfIntersectionChecker;
@@ -35,6 +36,8 @@ pub struct StepReport {
 pub struct FitState {
     params: Vec<f32>,
     adam: Adam,
+    inflation: f32,
+    inflation_adam: Adam,
 }
 
 /// How a [`PoseFit`] starts: the initial pose and the optimiser's settings.
@@ -92,6 +95,11 @@ pub struct PoseFit {
     /// Which parameters the steps may change ([`PoseFit::set_free`]): joint offsets, global
     /// orientation and translation.
     free: Free,
+    /// The inflation `d` ([`PoseFit::set_inflation`]), its Adam and its step size (0: `d` is
+    /// not fitted).
+    inflation: f32,
+    inflation_adam: Adam,
+    inflation_rate: f32,
 }
 
 /// Which groups of pose parameters a [`PoseFit`] changes; the others keep their values.
@@ -192,6 +200,9 @@ impl PoseFit {
             pixel_weight: if pixels > 0.0 { 1.0 / pixels } else { 1.0 },
             pose_prior: 0.0,
             free: Free::default(),
+            inflation: 0.0,
+            inflation_adam: Adam::new(1.0),
+            inflation_rate: 0.0,
         })
     }
 
@@ -223,10 +234,11 @@ impl PoseFit {
         self.model.skin_shaped(&self.pose(), self.shape())
     }
 
-    /// Renders the current pose in every view.
+    /// Renders the current pose in every view (inflated by [`PoseFit::inflation`], as `E_sl`
+    /// sees it).
     pub fn render(&mut self) -> Result<Vec<Image>> {
         let vertices = self.vertices()?;
-        self.mesh.set_positions(&vertices)?;
+        self.set_rendered_positions(&vertices)?;
         Ok(self.renderer.render(&self.mesh, &self.cameras)?.images().to_vec())
     }
 
@@ -237,7 +249,12 @@ impl PoseFit {
 
     /// The optimiser's state (pose parameters and Adam's moments).
     pub fn state(&self) -> FitState {
-        FitState { params: self.params.clone(), adam: self.adam.clone() }
+        FitState {
+            params: self.params.clone(),
+            adam: self.adam.clone(),
+            inflation: self.inflation,
+            inflation_adam: self.inflation_adam.clone(),
+        }
     }
 
     /// Restores a state taken by [`PoseFit::state`] from this fit.
@@ -251,10 +268,12 @@ impl PoseFit {
         }
         self.params = state.params;
         self.adam = state.adam;
+        self.inflation = state.inflation;
+        self.inflation_adam = state.inflation_adam;
         Ok(())
     }
 
-    /// Moves to `pose` and the initial shape, and forgets Adam's moments (a fresh start from
+    /// Moves to `pose`, the initial shape and no inflation, and forgets Adam's moments (a fresh start from
     /// there). Errors when `pose` does not fit the skeleton or carries joint translations where
     /// the fit's initial pose did not (or the other way round).
     pub fn restart(&mut self, pose: &Pose) -> Result<()> {
@@ -270,6 +289,8 @@ impl PoseFit {
         params.extend_from_slice(&self.initial_shape);
         self.params = params;
         self.adam = Adam::new(self.adam.learning_rate);
+        self.inflation = 0.0;
+        self.inflation_adam = Adam::new(self.inflation_adam.learning_rate);
         Ok(())
     }
 
@@ -337,6 +358,86 @@ impl PoseFit {
         }
     }
 
+    /// The inflation `d` (world units): `E_sl` compares the silhouettes of the skinned vertices
+    /// moved along their normals, `v_i + d·n_i` (`n_i` the unit area-weighted vertex normals of
+    /// the posed mesh, [`vertex_normals`](super::vertex_normals)). [`PoseFit::pose`] and
+    /// [`PoseFit::vertices`] never include it; the self-intersection term and the priors do not see it.
+    pub fn inflation(&self) -> f32 {
+        self.inflation
+    }
+
+    /// Sets the inflation `d` (world units; see [`PoseFit::inflation`]). Errors on a non-finite
+    /// value.
+    pub fn set_inflation(&mut self, d: f32) -> Result<()> {
+        if !d.is_finite() {
+            return Err(Error::InvalidSettings(format!("inflation {d}: need a finite number")));
+        }
+        self.inflation = d;
+        Ok(())
+    }
+
+    /// How far a step may move the inflation `d`: its own Adam's learning rate, in world units
+    /// (Adam steps are about this size). 0 (the default) does not fit `d`, which then stays
+    /// where it is (0 unless set): the fit is then exactly the one without inflation. With a
+    /// positive rate each step also descends `∂E/∂d = Σ_i ∂E_sl/∂v_i · n_i`, the normals held
+    /// constant within the step, so that a mask uniformly too fat or too thin is explained by
+    /// `d` rather than by twisting the pose. Errors on a negative or non-finite rate.
+    pub fn set_inflation_rate(&mut self, rate: f32) -> Result<()> {
+        if !(rate.is_finite() && rate >= 0.0) {
+            return Err(Error::InvalidSettings(format!("need a non-negative inflation rate, got {rate}")));
+        }
+        self.inflation_rate = rate;
+        if rate > 0.0 {
+            self.inflation_adam.learning_rate = rate;
+        }
+        Ok(())
+    }
+
+    /// The inflation step size (0: `d` is not fitted).
+    pub fn inflation_rate(&self) -> f32 {
+        self.inflation_rate
+    }
+
+    /// `∂E_sl/∂d` at the current pose, shape and inflation, with the current blur (what a step
+    /// descends).
+    pub fn inflation_gradient(&mut self) -> Result<f64> {
+        let vertices = self.vertices()?;
+        let normals = self.normals(&vertices);
+        self.mesh.set_positions(&inflation::inflate(&vertices, &normals, self.inflation))?;
+        let (_, d_vertices) = self.silhouette_pass()?;
+        Ok(inflation::gradient(&d_vertices, &normals))
+    }
+
+    /// The unit vertex normals of the mesh at `vertices`.
+    fn normals(&self, vertices: &[Vec3]) -> Vec<Vec3> {
+        inflation::vertex_normals(vertices, self.mesh.triangles())
+    }
+
+    /// Puts `vertices` inflated by `d` into the rendered mesh; returns the normals when they
+    /// were needed (`d` ≠ 0 or fitted).
+    fn set_rendered_positions(&mut self, vertices: &[Vec3]) -> Result<Option<Vec<Vec3>>> {
+        if self.inflation == 0.0 && self.inflation_rate == 0.0 {
+            self.mesh.set_positions(vertices)?;
+            return Ok(None);
+        }
+        let normals = self.normals(vertices);
+        self.mesh.set_positions(&inflation::inflate(vertices, &normals, self.inflation))?;
+        Ok(Some(normals))
+    }
+
+    /// Renders the rendered mesh, `E_sl` against the blurred targets (a mean over pixels) and its
+    /// gradient with respect to the rendered vertices.
+    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>)> {
+        silhouette_pass(
+            &mut self.renderer,
+            &self.mesh,
+            &self.cameras,
+            &self.blurred_targets,
+            &self.blurs,
+            self.pixel_weight,
+        )
+    }
+
     /// The current blur, as a fraction of the image height.
     pub fn blur(&self) -> f32 {
         self.blur
@@ -371,7 +472,7 @@ impl PoseFit {
     /// minimises).
     pub fn energy(&mut self) -> Result<f64> {
         let vertices = self.vertices()?;
-        self.mesh.set_positions(&vertices)?;
+        self.set_rendered_positions(&vertices)?;
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
         let (silhouette, _) = loss::squared_error_views(frame.images(), &self.targets)?;
         let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
@@ -386,28 +487,23 @@ impl PoseFit {
     pub fn step(&mut self) -> Result<StepReport> {
         let pose = self.pose();
         let (vertices, cache) = self.model.skin_shaped_with_cache(&pose, self.shape())?;
-        self.mesh.set_positions(&vertices)?;
+        let normals = self.set_rendered_positions(&vertices)?;
         // The self-intersection check is single-threaded and independent of the images: it runs
-        // beside the render + backward.
+        // beside the render + backward. It sees the skinned vertices, without inflation.
         let (checker, lambda) = (&mut self.checker, self.lambda);
+        let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
+        let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
-            || -> Result<(f64, Vec<Vec3>)> {
-                let frame = self.renderer.render(&self.mesh, &self.cameras)?;
-                let mut silhouette = 0.0;
-                let mut d_images = Vec::with_capacity(self.targets.len());
-                for ((image, target), blur) in frame.images().iter().zip(&self.blurred_targets).zip(&self.blurs) {
-                    let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
-                    silhouette += value * self.pixel_weight;
-                    for g in grad.data_mut() {
-                        *g = (f64::from(*g) * self.pixel_weight) as f32;
-                    }
-                    d_images.push(grad);
-                }
-                Ok((silhouette, self.renderer.backward(&frame, &d_images)?))
-            },
+            || silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
             || if lambda > 0.0 { checker.check(&vertices).map(Some) } else { Ok(None) },
         );
         let (silhouette, mut d_vertices) = silhouette_pass?;
+        // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'
+        // gradient is the skinned vertices'.
+        let d_inflation = match (&normals, self.inflation_rate > 0.0) {
+            (Some(normals), true) => Some(inflation::gradient(&d_vertices, normals)),
+            _ => None,
+        };
         let (penalty, surrogate) = match intersection? {
             Some(result) => {
                 for (g, s) in d_vertices.iter_mut().zip(&result.grad) {
@@ -447,6 +543,11 @@ impl PoseFit {
             grads[r.clone()].fill(0.0);
         }
         self.adam.step(&mut self.params, &grads)?;
+        if let Some(g) = d_inflation {
+            let mut d = [self.inflation];
+            self.inflation_adam.step(&mut d, &[g as f32])?;
+            self.inflation = d[0];
+        }
         // Adam's moments from before a group was frozen would still move it: put it back.
         for (r, values) in frozen.iter().zip(kept) {
             self.params[r.clone()].copy_from_slice(&values);
@@ -465,6 +566,30 @@ impl PoseFit {
     }
 }
 
+/// Renders `mesh`, `E_sl` against the (blurred) `targets` as a mean over pixels (`pixel_weight`
+/// per pixel) and its gradient with respect to the mesh's vertices.
+fn silhouette_pass(
+    renderer: &mut Renderer,
+    mesh: &Mesh,
+    cameras: &[Camera],
+    targets: &[Image],
+    blurs: &[GaussianBlur],
+    pixel_weight: f64,
+) -> Result<(f64, Vec<Vec3>)> {
+    let frame = renderer.render(mesh, cameras)?;
+    let mut silhouette = 0.0;
+    let mut d_images = Vec::with_capacity(targets.len());
+    for ((image, target), blur) in frame.images().iter().zip(targets).zip(blurs) {
+        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
+        silhouette += value * pixel_weight;
+        for g in grad.data_mut() {
+            *g = (f64::from(*g) * pixel_weight) as f32;
+        }
+        d_images.push(grad);
+    }
+    Ok((silhouette, renderer.backward(&frame, &d_images)?))
+}
+
 impl std::fmt::Debug for PoseFit {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let sizes: Vec<(u32, u32)> = self.cameras.iter().map(|c| (c.width, c.height)).collect();
@@ -477,6 +602,8 @@ impl std::fmt::Debug for PoseFit {
             .field("lambda", &self.lambda)
             .field("pose_prior", &self.pose_prior)
             .field("blur", &self.blur)
+            .field("inflation", &self.inflation)
+            .field("inflation_rate", &self.inflation_rate)
             .finish_non_exhaustive()
     }
 }

@@ -48,6 +48,13 @@ pub struct FitOptions {
     /// The pose to start from (and to keep where a part is not fitted); `None`: the rest pose.
     /// Default `None`.
     pub initial: Option<Pose>,
+    /// Fit an inflation `d` beside the pose: the silhouettes compared are those of the vertices
+    /// moved by `d` along their normals ([`PoseFit::inflation`]), so that masks uniformly too
+    /// fat or too thin do not twist the pose. The fitted pose and vertices exclude `d`.
+    pub fit_inflation: bool,
+    /// Step size of `d` as a fraction of the model's rest height (its extent along y) per Adam
+    /// step, > 0 ([`PoseFit::set_inflation_rate`]). Default [`FitOptions::INFLATION_RATE`].
+    pub inflation_rate: f32,
 }
 
 impl Default for FitOptions {
@@ -67,11 +74,19 @@ impl Default for FitOptions {
             shape_prior: PoseFit::SHAPE_PRIOR,
             initial_shape: Vec::new(),
             initial: None,
+            fit_inflation: FIT_INFLATION_DEFAULT,
+            inflation_rate: FitOptions::INFLATION_RATE,
         }
     }
 }
 
+/// Whether `FitOptions::default()` fits the inflation.
+const FIT_INFLATION_DEFAULT: bool = true;
+
 impl FitOptions {
+    /// Default step size of the inflation, as a fraction of the model's rest height per step.
+    pub const INFLATION_RATE: f32 = 1e-3;
+
     /// The schedule and the starting poses [`fit`] uses for `model`.
     ///
     /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
@@ -160,6 +175,12 @@ pub fn fit(
         return Err(Error::InvalidSettings(format!("need a non-negative pose prior, got {}", options.pose_prior)));
     }
     let (schedule, hypotheses) = options.plan(&model)?;
+    let (low, high) = model
+        .mesh
+        .positions()
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| (lo.min(v.y), hi.max(v.y)));
+    let height = if high > low { high - low } else { 1.0 };
     let settings = FitSettings {
         initial: hypotheses.first().cloned(),
         learning_rate: options.learning_rate,
@@ -170,6 +191,15 @@ pub fn fit(
     fit.set_pose_prior(options.pose_prior)?;
     fit.set_shape_prior(options.shape_prior)?;
     fit.set_free(Free { joints: options.fit_pose, global: options.fit_global, shape: options.fit_shape });
+    if options.fit_inflation {
+        if !(options.inflation_rate.is_finite() && options.inflation_rate > 0.0) {
+            return Err(Error::InvalidSettings(format!(
+                "need a positive inflation rate, got {}",
+                options.inflation_rate
+            )));
+        }
+        fit.set_inflation_rate(options.inflation_rate * height)?;
+    }
     let report = fit.run(&schedule, &hypotheses, on_step)?;
     Ok(Fitted { fit, report })
 }

@@ -59,7 +59,16 @@
 //! 5. **Shape** (optional, [`FitOptions::fit_shape`]): the shape coefficients `β` of the model's
 //!    morph targets join the parameters, with a zero-mean Gaussian prior `ν·(1/K) Σ_k β_k²`
 //!    ([`PoseFit::set_shape_prior`], ν = [`PoseFit::SHAPE_PRIOR`]).
-//! 6. **Early stop:** the last (unblurred) stage ends when the mean energy of its last 25 steps
+//! 6. **Inflation** ([`FitOptions::fit_inflation`], on by default): one scalar `d` (world
+//!    units), fitted by its own Adam beside the pose ([`PoseFit::set_inflation_rate`], a step of
+//!    [`FitOptions::INFLATION_RATE`] × the model's height), moves every rendered vertex along its
+//!    area-weighted normal, `v_i + d·n_i` (normals held constant within a step, so
+//!    `∂E/∂d = Σ_i ∂E_sl/∂v_i · n_i`). Masks uniformly too fat or too thin (a mask 1 pixel off
+//!    the true outline, common in real segmentations) are then explained by `d` instead of a
+//!    twisted pose; the fitted pose and vertices exclude `d`. Seeds 31–50 at 64², F = 4
+//!    (raised ring): masks dilated by 1 pixel end at a median of 9.6 mm instead of 48 mm, eroded
+//!    ones at 43.8 mm instead of 113 mm, clean ones unchanged (5.6 mm).
+//! 7. **Early stop:** the last (unblurred) stage ends when the mean energy of its last 25 steps
 //!    is less than 0.5% below that of the 25 before ([`Convergence`]); means over windows, not
 //!    single steps, so that Adam's noise and the jump where the blur changes do not end it.
 //!
@@ -70,12 +79,14 @@
 
 mod cameras;
 mod descent;
+mod inflation;
 mod method;
 mod poses;
 mod schedule;
 
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
 pub use descent::{FitSettings, FitState, Free, PoseFit, StepReport};
+pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};
