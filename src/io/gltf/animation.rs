@@ -41,7 +41,42 @@ pub fn load_animations_with_options(path: impl AsRef<Path>, options: &LoadOption
     let format = |reason: String| Error::Format { path: path.to_path_buf(), reason };
     let (document, blob) = parse_document(&bytes).map_err(format)?;
     let buffers = load_buffers(&document, path, blob, options)?;
-    read_animations(&document, &buffers).map_err(format)
+    check_animation_json(document.as_json()).map_err(format)?;
+    // The `gltf` crate unwraps fields that validation left unchecked in places; the check above
+    // covers the ones known (paths, interpolations, indices). Any other panic in it is caught and
+    // reported as an invalid file rather than taking the caller down.
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_animations(&document, &buffers))) {
+        Ok(result) => result.map_err(format),
+        Err(_) => Err(format("not a valid glTF file: an animation failed validation".into())),
+    }
+}
+
+/// Checks what [`read_animations`] reaches through the `gltf` crate's unchecked accessors: every
+/// channel's target path and every sampler's interpolation are known values, and every index a
+/// channel or sampler holds (sampler, node, input and output accessors) is in range.
+fn check_animation_json(root: &gltf::json::Root) -> Reason<()> {
+    use gltf::json::validation::Checked;
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            if channel.sampler.value() >= animation.samplers.len() || channel.target.node.value() >= root.nodes.len() {
+                return Err(format!("animation {a}, channel {c}: its sampler or node index is out of range"));
+            }
+            if !matches!(channel.target.path, Checked::Valid(_)) {
+                return Err(format!("animation {a}, channel {c}: its target path is not one glTF defines"));
+            }
+        }
+        for (k, sampler) in animation.samplers.iter().enumerate() {
+            if sampler.input.value() >= root.accessors.len() || sampler.output.value() >= root.accessors.len() {
+                return Err(format!("animation {a}, sampler {k}: its input or output accessor is out of range"));
+            }
+            if !matches!(sampler.interpolation, Checked::Valid(_)) {
+                return Err(format!(
+                    "animation {a}, sampler {k}: its interpolation is not STEP, LINEAR or CUBICSPLINE"
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn read_animations(document: &gltf::Document, buffers: &[Vec<u8>]) -> Reason<Vec<Animation>> {
