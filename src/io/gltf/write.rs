@@ -223,13 +223,7 @@ fn glb_bytes(model: &SkinnedMesh) -> Reason<Vec<u8>> {
     }
     mesh.push(("primitives", json::array([json::object(&primitive)])));
     let document = json::object(&[
-        (
-            "asset",
-            json::object(&[
-                ("version", json::string("2.0")),
-                ("generator", json::string(concat!("diffsil ", env!("CARGO_PKG_VERSION")))),
-            ]),
-        ),
+        ("asset", json::asset()),
         ("scene", "0".into()),
         ("scenes", json::array([json::object(&[("nodes", json::array(scene_nodes))])])),
         ("nodes", json::array(nodes)),
@@ -269,6 +263,11 @@ pub(super) fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
 
 /// Just enough JSON writing for the GLB [`save_glb`](super::save_glb) writes (no serde_json dependency).
 pub(super) mod json {
+    /// The `asset` object every file diffsil writes carries: glTF 2.0, generator "diffsil <version>".
+    pub(in crate::io::gltf) fn asset() -> String {
+        object(&[("version", string("2.0")), ("generator", string(concat!("diffsil ", env!("CARGO_PKG_VERSION"))))])
+    }
+
     /// `{"key":value,...}`; values are already JSON.
     pub(in crate::io::gltf) fn object(fields: &[(&str, String)]) -> String {
         let body: Vec<String> = fields.iter().map(|(key, value)| format!("{}:{value}", string(key))).collect();

@@ -64,13 +64,7 @@ fn mesh_glb_bytes(mesh: &Mesh) -> Reason<Vec<u8>> {
         ("mode", "4".into()),
     ]);
     let document = json::object(&[
-        (
-            "asset",
-            json::object(&[
-                ("version", json::string("2.0")),
-                ("generator", json::string(concat!("diffsil ", env!("CARGO_PKG_VERSION")))),
-            ]),
-        ),
+        ("asset", json::asset()),
         ("scene", "0".into()),
         ("scenes", json::array([json::object(&[("nodes", json::array(["0".to_string()]))])])),
         ("nodes", json::array([json::object(&[("name", json::string("mesh")), ("mesh", "0".into())])])),
