@@ -307,10 +307,7 @@ fn fit_seed(
             ));
         }
         bar.inc(1);
-        match o.time_limit {
-            Some(limit) if start.elapsed().as_secs_f64() > limit => ControlFlow::Break(()),
-            _ => ControlFlow::Continue(()),
-        }
+        within_time_limit(o.time_limit, start)
     })?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
@@ -397,10 +394,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |_, progress| {
         bar.set_message(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette));
         bar.inc(1);
-        match o.time_limit {
-            Some(limit) if start.elapsed().as_secs_f64() > limit => ControlFlow::Break(()),
-            _ => ControlFlow::Continue(()),
-        }
+        within_time_limit(o.time_limit, start)
     })?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
@@ -630,4 +624,13 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
         outcome.backend.replace(' ', "_")
     );
     Ok(())
+}
+
+/// `--time-limit`: `Break` (cancel the fit) once more than `limit` seconds have passed since
+/// `start`, `Continue` otherwise or without a limit.
+fn within_time_limit(limit: Option<f64>, start: Instant) -> ControlFlow<()> {
+    match limit {
+        Some(limit) if start.elapsed().as_secs_f64() > limit => ControlFlow::Break(()),
+        _ => ControlFlow::Continue(()),
+    }
 }
