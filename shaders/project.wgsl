@@ -2,7 +2,8 @@
 // vertices and their snapped twins, every view at once; `snap_vertices` snaps screen-space input.
 //
 // Reads:  `frame` (uniform: sizes, views), `cameras[view]` (one ViewParams per view),
-//         `positions` (x, y, z per vertex, f32).
+//         `positions` (x, y, z per vertex, f32; in a batch every instance's vertices back to
+//         back, view `k` reading its instance's from `frame.views[k].vertex_offset`).
 // Writes: `screen[view · vertex_count + v]` and `snapped[view · vertex_count + v]` (as
 //         `snap_vertices` does) for every view and vertex.
 // Dispatch: 1D over view_count · vertex_count invocations (`dispatch_1d`, 64 per workgroup).
@@ -58,8 +59,8 @@ fn dot_glam(r: vec4<f32>, p: vec3<f32>) -> f32 {
     return no_fuse(x + z) + no_fuse(y + r.w);
 }
 
-// Entry point for 3D input (one invocation per view × vertex): reads `cameras`, `positions`; writes
-// `screen` and `snapped`.
+// Entry point for 3D input (one invocation per view × vertex): reads `cameras`, `positions` (from
+// the view's `vertex_offset`, its instance in a batch); writes `screen` and `snapped`.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) workgroup_id: vec3<u32>,
@@ -72,7 +73,7 @@ fn main(
         return;
     }
     let view = cameras[i / n];
-    let v = i % n;
+    let v = frame.views[i / n].vertex_offset + i % n;
     let p = vec3<f32>(positions[3u * v], positions[3u * v + 1u], positions[3u * v + 2u]);
     let c = vec3<f32>(dot_glam(view.row0, p), dot_glam(view.row1, p), dot_glam(view.row2, p));
     let depth = -c.z;

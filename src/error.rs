@@ -134,6 +134,15 @@ pub enum Error {
         /// Views one GPU frame holds.
         max: usize,
     },
+    /// A batch with no instance.
+    #[error("a batch needs at least one instance")]
+    EmptyBatch,
+    /// An instance of a batch whose mesh does not share the batch's topology.
+    #[error("instance {instance} of the batch has another topology than instance 0: every instance must share one `Arc<Topology>`; make the meshes with `Mesh::with_topology(positions, first.topology().clone())`")]
+    TopologyMismatch {
+        /// The instance.
+        instance: usize,
+    },
     /// The GPU device reported an error.
     #[error("GPU error: {0}")]
     Gpu(String),

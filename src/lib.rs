@@ -98,7 +98,7 @@
 //!
 //! | where | what |
 //! |---|---|
-//! | crate root | [`Renderer`], [`RenderSettings`], [`Backend`], [`Frame`], [`ScreenView`], [`Targets`], [`Step`], [`RenderStats`], [`BackwardStats`], [`StageTiming`]; [`Camera`], [`Extrinsics`], [`Orbit`], [`Projection`]; [`RigidTransform`], [`RigidGradient`], [`CameraGradient`], [`camera_gradient`]; [`ViewParams`], [`Mesh`], [`Topology`], [`Image`]; [`Error`], [`Result`], [`COORD_LIMIT`]; [`Vec2`], [`Vec3`] |
+//! | crate root | [`Renderer`], [`RenderSettings`], [`Backend`], [`Frame`], [`ScreenView`], [`Targets`], [`Step`], [`Instance`], [`BatchFrame`], [`RenderStats`], [`BackwardStats`], [`StageTiming`]; [`Camera`], [`Extrinsics`], [`Orbit`], [`Projection`]; [`RigidTransform`], [`RigidGradient`], [`CameraGradient`], [`camera_gradient`]; [`ViewParams`], [`Mesh`], [`Topology`], [`Image`]; [`Error`], [`Result`], [`COORD_LIMIT`]; [`Vec2`], [`Vec3`] |
 //! | [`scene`] | [`scene::camera`], [`scene::mesh`], [`scene::image`], [`shapes`] (icosphere, blob) |
 //! | [`loss`], [`optim`] | squared error (paper Eq. 18), soft IoU, blurred squared error, each with `∂L/∂I`; Adam |
 //! | [`io`] | OBJ loading, PNG images and targets, welding; `io::gltf` (feature `pose`): glTF/GLB static and skinned meshes |
@@ -143,6 +143,7 @@ pub mod scene;
 pub use engine::StageTiming;
 pub use error::{Error, Result};
 pub use mirror::{ViewParams, COORD_LIMIT};
+pub use render::batch::{BatchFrame, Instance};
 pub use render::params::{camera_gradient, CameraGradient, RigidGradient, RigidTransform};
 pub use render::{
     frame_bytes, Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets,

@@ -250,8 +250,9 @@ pub struct GpuView {
     pub pixel_offset: u32,
     /// First tile of this view in the concatenated tile arrays.
     pub tile_offset: u32,
-    /// Padding to 64 bytes.
-    pub pad0: u32,
+    /// First vertex of this view's instance in the concatenated `positions` of a batch (0 for
+    /// one mesh): `project` reads vertex `v` of the view at `positions[vertex_offset + v]`.
+    pub vertex_offset: u32,
     /// Padding to 64 bytes.
     pub pad1: u32,
 }

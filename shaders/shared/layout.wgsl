@@ -70,7 +70,9 @@ struct GpuView {
     pixel_offset: u32,
     // First tile of this view in the concatenated tile arrays.
     tile_offset: u32,
-    pad0: u32,
+    // First vertex of this view's instance in the concatenated `positions` of a batch (0 for one
+    // mesh; see project.wgsl).
+    vertex_offset: u32,
     pad1: u32,
 }
 

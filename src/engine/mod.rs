@@ -33,6 +33,18 @@ pub(crate) enum ViewInput<'a> {
     },
 }
 
+/// The 3D input of a batch: instances that share one topology, each with its own vertex
+/// positions and views, rendered together (validated by the renderer).
+#[derive(Clone, Copy)]
+pub(crate) struct BatchInput<'a> {
+    /// Every instance's positions, instance after instance (`vertex_count` each).
+    pub positions: &'a [Vec3],
+    /// Per view, instance after instance: projection constants.
+    pub cameras: &'a [ViewParams],
+    /// Per view: the first vertex of its instance in `positions`.
+    pub vertex_offsets: &'a [u32],
+}
+
 /// What an engine keeps of a forward for its backward. Each engine downcasts its own; a frame
 /// from the other engine is an [`crate::Error::InvalidFrame`].
 pub(crate) trait FrameState: Any + Send + Sync {
@@ -127,5 +139,35 @@ pub(crate) trait Engine: Send {
         let d: Vec<&[f32]> = grads.iter().map(|g| g.data()).collect();
         let (screen_grads, backward) = self.backward(frame, &d)?;
         Ok(StepOutput { view_losses, screen_grads, stats: rendered.stats, backward })
+    }
+
+    /// Renders every view of every instance of a batch in one pass (`params[k]` and the `k`-th
+    /// view of `input`), or `None` when the engine has no joint path for batches: the renderer
+    /// then runs the instances separately, side by side (the CPU engine, which keeps no state
+    /// between calls). The frame's backward is [`Engine::backward`], its `world` input the
+    /// batch's positions and cameras.
+    fn forward_batch(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: BatchInput<'_>,
+    ) -> Option<Result<Rendered>> {
+        let _ = (topology, params, input);
+        None
+    }
+
+    /// [`Engine::squared_error_step`] for every view of every instance of a batch in one pass
+    /// (`targets_ids`: one id per instance, naming its targets), or `None` as for
+    /// [`Engine::forward_batch`].
+    fn squared_error_step_batch(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: BatchInput<'_>,
+        targets_ids: &[u64],
+        targets: &[&Image],
+    ) -> Option<Result<StepOutput>> {
+        let _ = (topology, params, input, targets_ids, targets);
+        None
     }
 }

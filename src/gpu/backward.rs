@@ -34,14 +34,16 @@ impl GpuBackend {
     }
 
     /// The backward of all views in one submission: `∂L/∂I` per view → `∂L/∂(screen vertex)` per
-    /// view, with the segment counts. Runs the frame's forward again first when the buffers no
-    /// longer hold its state.
+    /// view, with the segment counts. Runs the frame's forward again first (from `input` and
+    /// `vertex_offsets`, as [`GpuBackend::forward`] takes them) when the buffers no longer hold
+    /// its state.
     pub fn backward(
         &mut self,
         frame: GpuFrame,
         topology: &Arc<Topology>,
         params: &[RasterParams],
         input: ViewInput<'_>,
+        vertex_offsets: &[u32],
         d_images: Option<&[&[f32]]>,
     ) -> Result<(Vec<Vec<Vec2>>, Vec<BackwardStats>)> {
         let n = params.len();
@@ -55,7 +57,7 @@ impl GpuBackend {
                     "the GPU no longer holds this frame's loss gradient (another forward ran since)".into(),
                 ));
             }
-            self.forward(topology, params, input, super::backend::ForwardMode::Images)?;
+            self.forward(topology, params, input, vertex_offsets, super::backend::ForwardMode::Images)?;
         }
         self.ensure_partials()?;
         let ctx = &self.ctx;

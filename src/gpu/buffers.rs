@@ -53,7 +53,9 @@ pub(super) struct Shape {
     pub topology: usize,
     pub sizes: Vec<(u32, u32)>,
     pub supersample: u32,
-    pub world: bool,
+    /// 3D input: the number of input positions (one mesh's vertices, or every instance's of a
+    /// batch); `None` for screen-space input.
+    pub positions: Option<usize>,
 }
 
 /// The per-part results of `edge_grad` (grown to the candidates × parts of the frame).
@@ -69,8 +71,8 @@ pub(super) struct LossBuffers {
     pub tile_losses: wgpu::Buffer,
     /// Readback of a fused step: per-tile losses, status counters, vertex gradients.
     pub staging: wgpu::Buffer,
-    /// Which targets `target` holds (0: none yet).
-    pub id: u64,
+    /// Which targets `target` holds (the ids of its sets; empty: none yet).
+    pub ids: Vec<u64>,
 }
 
 /// Per-shape buffers and bind groups.
@@ -201,18 +203,18 @@ impl GpuBackend {
         Ok(())
     }
 
-    /// Makes the loss buffers exist and hold `targets` (uploaded when `id` changed); returns whether
+    /// Makes the loss buffers exist and hold `targets` (uploaded when `ids` changed); returns whether
     /// they were uploaded now.
-    pub(super) fn ensure_loss(&mut self, id: u64, targets: &[&[f32]]) -> Result<bool> {
+    pub(super) fn ensure_loss(&mut self, ids: &[u64], targets: &[&[f32]]) -> Result<bool> {
         let topo = self.topology.take().expect("topology uploaded");
         let mut f = self.frame.take().expect("frame buffers built");
-        let result = self.make_loss(&topo, &mut f, id, targets);
+        let result = self.make_loss(&topo, &mut f, ids, targets);
         self.topology = Some(topo);
         self.frame = Some(f);
         result
     }
 
-    fn make_loss(&self, topo: &TopologyBuffers, f: &mut FrameBuffers, id: u64, targets: &[&[f32]]) -> Result<bool> {
+    fn make_loss(&self, topo: &TopologyBuffers, f: &mut FrameBuffers, ids: &[u64], targets: &[&[f32]]) -> Result<bool> {
         let ctx = &self.ctx;
         if f.loss.is_none() {
             let params = f.uniform.params;
@@ -223,11 +225,11 @@ impl GpuBackend {
                 "diffsil step readback",
                 params.total_tiles as u64 * 4 + status_len(n as usize) as u64 * 4 + n * vertices * 8,
             )?;
-            f.loss = Some(LossBuffers { target, tile_losses, staging, id: 0 });
+            f.loss = Some(LossBuffers { target, tile_losses, staging, ids: Vec::new() });
             f.bind(self, topo, &[Stage::Loss])?;
         }
         let loss = f.loss.as_mut().expect("made above");
-        if loss.id == id {
+        if loss.ids == ids {
             return Ok(false);
         }
         for (view, target) in f.uniform.views.iter().zip(targets) {
@@ -235,7 +237,7 @@ impl GpuBackend {
                 ctx.queue().write_buffer(&loss.target, view.pixel_offset as u64 * 4, bytemuck::cast_slice(target));
             }
         }
-        loss.id = id;
+        loss.ids = ids.to_vec();
         Ok(true)
     }
 
@@ -318,10 +320,11 @@ impl GpuBackend {
         uniform.views[..layout.views.len()].copy_from_slice(&layout.views);
 
         let uniform_buffer = ctx.uniform_buffer_init("diffsil frame", &*uniform)?;
-        let (cameras, positions) = if shape.world {
+        let (cameras, positions) = if let Some(positions) = shape.positions {
+            check_index(3 * positions as u64)?;
             (
                 ctx.storage_buffer("diffsil cameras", at_least_one(n, std::mem::size_of::<ViewParams>()))?,
-                ctx.storage_buffer("diffsil positions", at_least_one(vertices, 12))?,
+                ctx.storage_buffer("diffsil positions", at_least_one(positions as u64, 12))?,
             )
         } else {
             (ctx.storage_buffer("diffsil cameras (unused)", 80)?, ctx.storage_buffer("diffsil positions (unused)", 4)?)
@@ -344,7 +347,7 @@ impl GpuBackend {
         let staging =
             ctx.staging_buffer("diffsil readback", (layout.total_pixels * 4).max(n * vertices * 8) + status_bytes)?;
 
-        let world = shape.world;
+        let world = shape.positions.is_some();
         let mut frame = FrameBuffers {
             shape,
             uniform,

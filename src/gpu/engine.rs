@@ -8,7 +8,7 @@ use glam::Vec2;
 use super::backend::{ForwardMode, ForwardOutput, GpuBackend, GpuFrame};
 use super::{AdapterReport, GpuContext};
 use crate::engine::{
-    BackwardStats, Engine, FrameRef, FrameState, RenderStats, Rendered, StageTiming, StepOutput, ViewInput,
+    BackwardStats, BatchInput, Engine, FrameRef, FrameState, RenderStats, Rendered, StageTiming, StepOutput, ViewInput,
 };
 use crate::mirror::{RasterParams, ScreenVertex};
 use crate::scene::mesh::Topology;
@@ -27,10 +27,12 @@ impl GpuEngine {
 }
 
 /// What a GPU forward keeps: which forward left the GPU buffers as they are, and (for screen-space
-/// input) the screen vertices, so the forward can run again should the buffers have been reused.
+/// input) the screen vertices, so the forward can run again should the buffers have been reused
+/// (for a batch, with its views' vertex offsets).
 struct GpuFrameState {
     frame: GpuFrame,
     screens: Vec<Vec<ScreenVertex>>,
+    vertex_offsets: Vec<u32>,
 }
 
 impl FrameState for GpuFrameState {
@@ -68,18 +70,17 @@ impl Engine for GpuEngine {
     }
 
     fn forward(&mut self, topology: &Arc<Topology>, params: &[RasterParams], input: ViewInput<'_>) -> Result<Rendered> {
-        let out = self.backend.forward(topology, params, input, ForwardMode::Images)?;
-        let stats = render_stats(&out);
-        let images = params
-            .iter()
-            .zip(out.images)
-            .map(|(p, image)| Image::from_vec(p.width, p.height, image))
-            .collect::<Result<Vec<_>>>()?;
-        let screens = match input {
-            ViewInput::Screen(screens) => screens.to_vec(),
-            ViewInput::World { .. } => Vec::new(),
-        };
-        Ok(Rendered { images, stats, state: Box::new(GpuFrameState { frame: out.frame, screens }) })
+        self.render(topology, params, input, &[])
+    }
+
+    fn forward_batch(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: BatchInput<'_>,
+    ) -> Option<Result<Rendered>> {
+        let views = ViewInput::World { positions: input.positions, cameras: input.cameras };
+        Some(self.render(topology, params, views, input.vertex_offsets))
     }
 
     fn backward(&mut self, frame: FrameRef<'_>, d_images: &[&[f32]]) -> Result<(Vec<Vec<Vec2>>, Vec<BackwardStats>)> {
@@ -94,7 +95,7 @@ impl Engine for GpuEngine {
             Some((positions, cameras)) => ViewInput::World { positions, cameras },
             None => ViewInput::Screen(&state.screens),
         };
-        self.backend.backward(state.frame, frame.topology, frame.params, input, Some(d_images))
+        self.backend.backward(state.frame, frame.topology, frame.params, input, &state.vertex_offsets, Some(d_images))
     }
 
     fn squared_error_step(
@@ -105,12 +106,64 @@ impl Engine for GpuEngine {
         targets_id: u64,
         targets: &[Image],
     ) -> Result<StepOutput> {
+        let targets: Vec<&Image> = targets.iter().collect();
+        self.step(topology, params, input, &[], &[targets_id], &targets)
+    }
+
+    fn squared_error_step_batch(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: BatchInput<'_>,
+        targets_ids: &[u64],
+        targets: &[&Image],
+    ) -> Option<Result<StepOutput>> {
+        let views = ViewInput::World { positions: input.positions, cameras: input.cameras };
+        Some(self.step(topology, params, views, input.vertex_offsets, targets_ids, targets))
+    }
+}
+
+impl GpuEngine {
+    /// The forward of one mesh (`vertex_offsets` empty) or of a batch, every view in one
+    /// submission.
+    fn render(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: ViewInput<'_>,
+        vertex_offsets: &[u32],
+    ) -> Result<Rendered> {
+        let out = self.backend.forward(topology, params, input, vertex_offsets, ForwardMode::Images)?;
+        let stats = render_stats(&out);
+        let images = params
+            .iter()
+            .zip(out.images)
+            .map(|(p, image)| Image::from_vec(p.width, p.height, image))
+            .collect::<Result<Vec<_>>>()?;
+        let screens = match input {
+            ViewInput::Screen(screens) => screens.to_vec(),
+            ViewInput::World { .. } => Vec::new(),
+        };
+        let state = GpuFrameState { frame: out.frame, screens, vertex_offsets: vertex_offsets.to_vec() };
+        Ok(Rendered { images, stats, state: Box::new(state) })
+    }
+
+    /// The fused step of one mesh (`vertex_offsets` empty) or of a batch: one submission.
+    fn step(
+        &mut self,
+        topology: &Arc<Topology>,
+        params: &[RasterParams],
+        input: ViewInput<'_>,
+        vertex_offsets: &[u32],
+        targets_ids: &[u64],
+        targets: &[&Image],
+    ) -> Result<StepOutput> {
         let data: Vec<&[f32]> = targets.iter().map(|i| i.data()).collect();
-        let mode = ForwardMode::Step { id: targets_id, targets: &data };
-        let mut out = self.backend.forward(topology, params, input, mode)?;
+        let mode = ForwardMode::Step { ids: targets_ids, targets: &data };
+        let mut out = self.backend.forward(topology, params, input, vertex_offsets, mode)?;
         let (screen_grads, backward) = match out.backward.take() {
             Some(backward) => backward,
-            None => self.backend.backward(out.frame, topology, params, input, None)?,
+            None => self.backend.backward(out.frame, topology, params, input, vertex_offsets, None)?,
         };
         let stats = render_stats(&out);
         Ok(StepOutput { view_losses: out.losses, screen_grads, stats, backward })

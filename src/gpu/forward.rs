@@ -25,18 +25,19 @@ pub(crate) enum ForwardMode<'a> {
     /// Not the images: the squared error against these targets (one per view, row-major, each of
     /// its view's size), whose gradient stays on the GPU, and the backward of that loss in the
     /// same submission (dispatched indirectly from the candidate count the forward finds), read
-    /// back with it: one round trip for a whole optimisation step. `id` identifies the targets'
-    /// contents: they are uploaded again only when it changes. The backward is left out (see
+    /// back with it: one round trip for a whole optimisation step. `ids` identifies the targets'
+    /// contents (one id per set of targets: one set, or one per instance of a batch): they are
+    /// uploaded again only when the ids change. The backward is left out (see
     /// [`ForwardOutput::backward`]) where the device cannot dispatch indirectly or the partials
     /// buffer is too small.
-    Step { id: u64, targets: &'a [&'a [f32]] },
+    Step { ids: &'a [u64], targets: &'a [&'a [f32]] },
 }
 
 impl ForwardMode<'_> {
-    fn targets(&self) -> Option<(u64, &[&[f32]])> {
+    fn targets(&self) -> Option<(&[u64], &[&[f32]])> {
         match *self {
             ForwardMode::Images => None,
-            ForwardMode::Step { id, targets } => Some((id, targets)),
+            ForwardMode::Step { ids, targets } => Some((ids, targets)),
         }
     }
 }
@@ -72,11 +73,15 @@ struct ForwardRead {
 
 impl GpuBackend {
     /// Runs the forward of all views in one submission; returns the images and counters.
+    ///
+    /// `vertex_offsets`: for 3D input, per view the first vertex of its instance in the
+    /// positions (a batch: every instance's positions back to back); empty for one mesh (all 0).
     pub fn forward(
         &mut self,
         topology: &Arc<Topology>,
         params: &[RasterParams],
         input: ViewInput<'_>,
+        vertex_offsets: &[u32],
         mode: ForwardMode<'_>,
     ) -> Result<ForwardOutput> {
         let n = params.len();
@@ -100,9 +105,15 @@ impl GpuBackend {
             topology: Arc::as_ptr(topology) as usize,
             sizes: params.iter().map(|p| (p.width, p.height)).collect(),
             supersample: params[0].supersample,
-            world: matches!(input, ViewInput::World { .. }),
+            positions: match input {
+                ViewInput::World { positions, .. } => Some(positions.len()),
+                ViewInput::Screen(_) => None,
+            },
         };
-        let layout = FrameLayout::new(params, topology.triangles().len());
+        let mut layout = FrameLayout::new(params, topology.triangles().len());
+        for (view, &offset) in layout.views.iter_mut().zip(vertex_offsets) {
+            view.vertex_offset = offset;
+        }
         if self.frame.as_ref().is_none_or(|f| f.shape != shape) {
             self.frame = None;
             self.generation = 0;
@@ -115,8 +126,8 @@ impl GpuBackend {
             // Settings (inside/outside) may change between frames of one shape.
             frame.uniform.views[..n].copy_from_slice(&layout.views);
             let mut targets_uploaded = false;
-            if let Some((id, targets)) = mode.targets() {
-                targets_uploaded = self.ensure_loss(id, targets)?;
+            if let Some((ids, targets)) = mode.targets() {
+                targets_uploaded = self.ensure_loss(ids, targets)?;
             }
             if matches!(mode, ForwardMode::Step { .. }) {
                 self.ensure_partials()?;

@@ -235,14 +235,14 @@ mod tests {
         let (topology, params, screens) = scene();
         let input = ViewInput::Screen(&screens);
 
-        let out = backend.forward(&topology, &params, input, ForwardMode::Images).unwrap();
+        let out = backend.forward(&topology, &params, input, &[], ForwardMode::Images).unwrap();
         let forward = backend.last_recording().clone();
         assert_eq!(forward.stages(), ["snap", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges"]);
         forward.check_reads_follow_writes().unwrap();
 
         let d_images: Vec<Vec<f32>> = params.iter().map(|p| vec![1.0; p.pixel_count()]).collect();
         let refs: Vec<&[f32]> = d_images.iter().map(|d| d.as_slice()).collect();
-        backend.backward(out.frame, &topology, &params, input, Some(&refs)).unwrap();
+        backend.backward(out.frame, &topology, &params, input, &[], Some(&refs)).unwrap();
         let backward = backend.last_recording().clone();
         assert_eq!(backward.stages(), ["edge_grad", "edge_sum", "gather"]);
         backward.check_reads_follow_writes().unwrap();
@@ -250,7 +250,7 @@ mod tests {
         let targets: Vec<Vec<f32>> = params.iter().map(|p| vec![0.5; p.pixel_count()]).collect();
         let refs: Vec<&[f32]> = targets.iter().map(|t| t.as_slice()).collect();
         for id in [1, 1] {
-            backend.forward(&topology, &params, input, ForwardMode::Step { id, targets: &refs }).unwrap();
+            backend.forward(&topology, &params, input, &[], ForwardMode::Step { ids: &[id], targets: &refs }).unwrap();
             let step = backend.last_recording().clone();
             let mut stages = vec!["snap", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges", "loss"];
             if indirect {
@@ -289,7 +289,7 @@ mod tests {
             })
             .collect();
         let input = ViewInput::World { positions: &positions, cameras: &cameras };
-        backend.forward(&topology, &params, input, ForwardMode::Images).unwrap();
+        backend.forward(&topology, &params, input, &[], ForwardMode::Images).unwrap();
         let forward = backend.last_recording();
         assert_eq!(forward.stages(), ["project", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges"]);
         forward.check_reads_follow_writes().unwrap();

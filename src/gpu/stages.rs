@@ -239,7 +239,7 @@ impl FrameLayout {
                 raster,
                 pixel_offset: pixels.min(u32::MAX as u64) as u32,
                 tile_offset: tiles.min(u32::MAX as u64) as u32,
-                pad0: 0,
+                vertex_offset: 0,
                 pad1: 0,
             });
             pixels += raster.pixel_count() as u64;

@@ -2,6 +2,7 @@
 //! fused optimisation step. It validates input and hands the stages to an engine
 //! ([`crate::engine`]); it never matches on which engine runs.
 
+pub mod batch;
 mod frame;
 pub mod params;
 mod settings;

@@ -17,8 +17,8 @@ static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
 /// targets the first time it sees it and keeps it on the device.
 #[derive(Clone, Debug)]
 pub struct Targets {
-    id: u64,
-    images: Vec<Image>,
+    pub(super) id: u64,
+    pub(super) images: Vec<Image>,
 }
 
 impl Targets {

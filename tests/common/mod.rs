@@ -4,6 +4,7 @@
 
 #![allow(dead_code)]
 
+pub mod batch;
 pub mod fd;
 pub mod files;
 pub mod fuzz;

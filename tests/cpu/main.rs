@@ -7,6 +7,7 @@
 mod common;
 
 mod bad_input;
+mod batch;
 mod camera;
 mod closed_form;
 mod coincident;

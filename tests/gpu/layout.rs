@@ -115,7 +115,7 @@ fn shared_structs_match_their_wgsl_twins() {
         ),
     );
     let gpu_view = fields("v.raster.", RASTER)
-        + &fields("v.", &[("pixel_offset", 1), ("tile_offset", 1), ("pad0", 1), ("pad1", 1)]);
+        + &fields("v.", &[("pixel_offset", 1), ("tile_offset", 1), ("vertex_offset", 1), ("pad1", 1)]);
     round_trip::<GpuView>(&ctx, "GpuView", &gpu_view);
     round_trip::<FrameParams>(
         &ctx,
