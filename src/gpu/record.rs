@@ -295,6 +295,62 @@ mod tests {
         forward.check_reads_follow_writes().unwrap();
     }
 
+    /// A batch (two instances, two views each, each view reading its instance's positions) is one
+    /// submission per forward, backward or fused step, and reads only what it wrote.
+    #[test]
+    fn a_batch_submission_reads_only_what_was_uploaded_cleared_or_written_before() {
+        let Some(ctx) = context("a_batch_submission_reads_only_what_was_uploaded_cleared_or_written_before") else {
+            return;
+        };
+        let indirect = ctx.supports_indirect_dispatch();
+        let mut backend = GpuBackend::new(ctx).unwrap();
+        let (topology, two, _) = scene();
+        let params = [two.clone(), two].concat();
+        let first = [[-1.0, -1.0, 0.0], [1.0, -0.8, 0.2], [0.1, 1.0, 0.0], [-0.9, 0.6, 0.3], [0.8, 0.9, -0.2]];
+        let positions: Vec<glam::Vec3> = first
+            .iter()
+            .chain(first.iter())
+            .enumerate()
+            .map(|(i, &p)| glam::Vec3::from(p) * (1.0 - 0.05 * i as f32))
+            .collect();
+        let cameras: Vec<crate::mirror::ViewParams> = params
+            .iter()
+            .map(|p| {
+                crate::Camera::perspective(glam::Vec3::new(0.0, 0.0, 5.0), glam::Vec3::ZERO, 0.8, p.width, p.height)
+                    .params()
+            })
+            .collect();
+        let offsets = [0, 0, 5, 5];
+        let input = ViewInput::World { positions: &positions, cameras: &cameras };
+        let out = backend.forward(&topology, &params, input, &offsets, ForwardMode::Images).unwrap();
+        let forward = backend.last_recording().clone();
+        assert_eq!(forward.stages(), ["project", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges"]);
+        forward.check_reads_follow_writes().unwrap();
+        assert_ne!(out.images[0], out.images[2], "both instances rendered the same positions");
+
+        let d_images: Vec<Vec<f32>> = params.iter().map(|p| vec![1.0; p.pixel_count()]).collect();
+        let refs: Vec<&[f32]> = d_images.iter().map(|d| d.as_slice()).collect();
+        backend.backward(out.frame, &topology, &params, input, &offsets, Some(&refs)).unwrap();
+        let backward = backend.last_recording().clone();
+        assert_eq!(backward.stages(), ["edge_grad", "edge_sum", "gather"]);
+        backward.check_reads_follow_writes().unwrap();
+
+        let targets: Vec<Vec<f32>> = params.iter().map(|p| vec![0.5; p.pixel_count()]).collect();
+        let refs: Vec<&[f32]> = targets.iter().map(|t| t.as_slice()).collect();
+        for _ in 0..2 {
+            backend
+                .forward(&topology, &params, input, &offsets, ForwardMode::Step { ids: &[7, 8], targets: &refs })
+                .unwrap();
+            let step = backend.last_recording().clone();
+            let mut stages = vec!["project", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges", "loss"];
+            if indirect {
+                stages.extend(["edge_grad_args", "edge_grad", "edge_sum", "gather"]);
+            }
+            assert_eq!(step.stages(), stages);
+            step.check_reads_follow_writes().unwrap();
+        }
+    }
+
     #[test]
     fn the_check_finds_a_read_before_any_write() {
         let recording = Recording {

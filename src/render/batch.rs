@@ -184,7 +184,11 @@ impl Renderer {
                 let rendered = (0..instances.len())
                     .into_par_iter()
                     .map(|i| {
-                        CpuEngine.forward(&batch.topology, &batch.params[batch.ranges[i].clone()], batch.instance_input(i))
+                        CpuEngine.forward(
+                            &batch.topology,
+                            &batch.params[batch.ranges[i].clone()],
+                            batch.instance_input(i),
+                        )
                     })
                     .collect::<Result<Vec<_>>>()?;
                 let (mut images, mut stats, mut states) = (Vec::new(), Vec::new(), Vec::new());
@@ -359,7 +363,13 @@ impl Renderer {
                 .map(|i| {
                     let range = batch.ranges[i].clone();
                     let (id, images) = (targets[i].id, &targets[i].images);
-                    CpuEngine.squared_error_step(&batch.topology, &batch.params[range], batch.instance_input(i), id, images)
+                    CpuEngine.squared_error_step(
+                        &batch.topology,
+                        &batch.params[range],
+                        batch.instance_input(i),
+                        id,
+                        images,
+                    )
                 })
                 .collect::<Result<Vec<_>>>()?,
         };
@@ -369,8 +379,12 @@ impl Renderer {
             .enumerate()
             .map(|(i, out)| {
                 let range = batch.ranges[i].clone();
-                let gradient =
-                    chain_instance(batch.instance_positions(i), &batch.views[range], &out.screen_grads, "squared_error_step")?;
+                let gradient = chain_instance(
+                    batch.instance_positions(i),
+                    &batch.views[range],
+                    &out.screen_grads,
+                    "squared_error_step",
+                )?;
                 if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
                     return Err(Error::InvalidSettings(format!(
                         "squared_error_step_batch: the loss of view {view} of instance {i} overflowed ({}): the \

@@ -113,7 +113,10 @@ fn bad_batches_are_clear_errors() {
         Err(Error::LengthMismatch { expected: 3, got: 2, .. })
     ));
     d_images[1].pop();
-    assert!(matches!(renderer.backward_batch(&frame, &d_images), Err(Error::ViewCountMismatch { views: 2, got: 1, .. })));
+    assert!(matches!(
+        renderer.backward_batch(&frame, &d_images),
+        Err(Error::ViewCountMismatch { views: 2, got: 1, .. })
+    ));
     let mut d_images = image_gradients(&cameras, 1);
     d_images[2][0] = Image::filled(3, 3, 0.0);
     assert!(matches!(renderer.backward_batch(&frame, &d_images), Err(Error::SizeMismatch { .. })));

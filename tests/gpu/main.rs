@@ -8,6 +8,7 @@ mod common;
 
 mod backend;
 mod bad_input;
+mod batch;
 mod coincident;
 mod exact;
 mod golden;
