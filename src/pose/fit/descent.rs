@@ -10,6 +10,10 @@ use crate::pose::self_intersection::SelfIntersectionChecker;
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{loss, Camera, Error, Image, Mesh, Renderer, Result};
 
+// A child of this module (it takes steps with a precomputed silhouette pass), in its own file.
+#[path = "hypotheses.rs"]
+mod hypotheses;
+
 /// The numbers of one fitting step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepReport {
@@ -485,6 +489,12 @@ impl PoseFit {
 
     /// One gradient step; returns the energies at the pose before the step.
     pub fn step(&mut self) -> Result<StepReport> {
+        self.step_with(None)
+    }
+
+    /// [`PoseFit::step`], with `E_sl` and its vertex gradient at the rendered vertices already
+    /// computed when `pass` is given (the hypotheses' batch, `hypotheses.rs`).
+    fn step_with(&mut self, pass: Option<(f64, Vec<Vec3>)>) -> Result<StepReport> {
         let pose = self.pose();
         let (vertices, cache) = self.model.skin_shaped_with_cache(&pose, self.shape())?;
         let normals = self.set_rendered_positions(&vertices)?;
@@ -494,7 +504,10 @@ impl PoseFit {
         let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
-            || silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
+            || match pass {
+                Some(pass) => Ok(pass),
+                None => silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
+            },
             || if lambda > 0.0 { checker.check(&vertices).map(Some) } else { Ok(None) },
         );
         let (silhouette, mut d_vertices) = silhouette_pass?;
@@ -577,9 +590,21 @@ fn silhouette_pass(
     pixel_weight: f64,
 ) -> Result<(f64, Vec<Vec3>)> {
     let frame = renderer.render(mesh, cameras)?;
+    let (silhouette, d_images) = silhouette_loss(frame.images(), targets, blurs, pixel_weight)?;
+    Ok((silhouette, renderer.backward(&frame, &d_images)?))
+}
+
+/// `E_sl` of rendered `images` against the (blurred) `targets` as a mean over pixels
+/// (`pixel_weight` per pixel) and its gradient per image.
+fn silhouette_loss(
+    images: &[Image],
+    targets: &[Image],
+    blurs: &[GaussianBlur],
+    pixel_weight: f64,
+) -> Result<(f64, Vec<Image>)> {
     let mut silhouette = 0.0;
     let mut d_images = Vec::with_capacity(targets.len());
-    for ((image, target), blur) in frame.images().iter().zip(targets).zip(blurs) {
+    for ((image, target), blur) in images.iter().zip(targets).zip(blurs) {
         let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
         silhouette += value * pixel_weight;
         for g in grad.data_mut() {
@@ -587,7 +612,7 @@ fn silhouette_pass(
         }
         d_images.push(grad);
     }
-    Ok((silhouette, renderer.backward(&frame, &d_images)?))
+    Ok((silhouette, d_images))
 }
 
 impl std::fmt::Debug for PoseFit {

@@ -157,18 +157,20 @@ impl PoseFit {
         let mut hypothesis_energies = Vec::new();
         let current = self.pose();
         let starts = if hypotheses.is_empty() { std::slice::from_ref(&current) } else { hypotheses };
-        for (k, start) in starts.iter().enumerate() {
-            self.restart(start)?;
-            self.set_blur(first_blur)?;
-            for _ in 0..schedule.hypothesis_steps {
-                let report = self.step()?;
+        // The hypotheses run in lock-step, one render batch per step; the steps are reported
+        // hypothesis after hypothesis, the fit at each step's state, as if they had run in turn.
+        for (k, hypothesis) in
+            self.run_hypotheses(starts, first_blur, schedule.hypothesis_steps)?.into_iter().enumerate()
+        {
+            for (report, state) in hypothesis.steps {
+                self.set_state(state)?;
                 step += 1;
                 if on_step(self, &Progress { step, hypothesis: Some(k), blur: self.blur(), report }).is_break() {
                     return self.end(step, hypothesis_energies, k, Stop::Cancelled);
                 }
             }
-            hypothesis_energies.push(self.energy()?);
-            states.push(self.state());
+            hypothesis_energies.push(hypothesis.energy);
+            states.push(hypothesis.state);
         }
         let chosen = hypothesis_energies
             .iter()

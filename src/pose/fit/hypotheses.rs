@@ -1,0 +1,86 @@
+//! The hypothesis phase of [`PoseFit::run`]: every starting pose takes the same steps, in
+//! lock-step, and each step renders and differentiates all of them as one batch
+//! ([`crate::Renderer::render_batch`], [`crate::Renderer::backward_batch`]): on the GPU one
+//! submission for the forward of every view of every hypothesis (and one for the backward)
+//! instead of one per hypothesis; on the CPU the hypotheses run side by side.
+//!
+//! Each hypothesis keeps its own optimiser state (its Adam moments) and goes through the same
+//! arithmetic as [`PoseFit::step`] (the batch returns the bits of separate calls; the
+//! self-intersection check sorts its pairs, so it does not depend on which pose it saw before),
+//! so the phase's results are those of running the hypotheses one after the other, bit for bit.
+
+use glam::Vec3;
+
+use super::{silhouette_loss, FitState, PoseFit, StepReport};
+use crate::pose::skin::Pose;
+use crate::{Image, Instance, Mesh, Result};
+
+/// One hypothesis after the phase.
+pub(in crate::pose::fit) struct Hypothesis {
+    /// Each step's report and the state after it.
+    pub steps: Vec<(StepReport, FitState)>,
+    /// The state at the end of the phase.
+    pub state: FitState,
+    /// The energy there ([`PoseFit::energy`], unblurred).
+    pub energy: f64,
+}
+
+impl PoseFit {
+    /// Restarts from each of `starts`, sets the blur to `blur` and takes `steps` steps from each,
+    /// in lock-step, one batch per step; returns each hypothesis's steps, final state and energy.
+    /// The fit is left at the last hypothesis's final state.
+    pub(in crate::pose::fit) fn run_hypotheses(
+        &mut self,
+        starts: &[Pose],
+        blur: f32,
+        steps: u32,
+    ) -> Result<Vec<Hypothesis>> {
+        self.set_blur(blur)?;
+        let mut states = Vec::with_capacity(starts.len());
+        for start in starts {
+            self.restart(start)?;
+            states.push(self.state());
+        }
+        let mut traces: Vec<Vec<(StepReport, FitState)>> = starts.iter().map(|_| Vec::new()).collect();
+        for _ in 0..steps {
+            // Every hypothesis's rendered vertices, as its step computes them.
+            let mut meshes = Vec::with_capacity(states.len());
+            for state in &states {
+                self.set_state(state.clone())?;
+                let (vertices, _) = self.model.skin_shaped_with_cache(&self.pose(), self.shape())?;
+                self.set_rendered_positions(&vertices)?;
+                meshes.push(self.mesh.clone());
+            }
+            let passes = self.silhouette_passes(&meshes)?;
+            for ((state, trace), pass) in states.iter_mut().zip(&mut traces).zip(passes) {
+                self.set_state(state.clone())?;
+                let report = self.step_with(Some(pass))?;
+                *state = self.state();
+                trace.push((report, state.clone()));
+            }
+        }
+        let mut hypotheses = Vec::with_capacity(states.len());
+        for (state, steps) in states.into_iter().zip(traces) {
+            self.set_state(state.clone())?;
+            hypotheses.push(Hypothesis { steps, state, energy: self.energy()? });
+        }
+        Ok(hypotheses)
+    }
+
+    /// `E_sl` and its gradient at the rendered vertices for each of `meshes` (the rendered mesh
+    /// of each hypothesis), one batch.
+    fn silhouette_passes(&mut self, meshes: &[Mesh]) -> Result<Vec<(f64, Vec<Vec3>)>> {
+        let instances: Vec<Instance<'_>> =
+            meshes.iter().map(|mesh| Instance { mesh, cameras: &self.cameras }).collect();
+        let frame = self.renderer.render_batch(&instances)?;
+        let mut losses = Vec::with_capacity(meshes.len());
+        let mut d_images: Vec<Vec<Image>> = Vec::with_capacity(meshes.len());
+        for k in 0..meshes.len() {
+            let (loss, d) = silhouette_loss(frame.images(k), &self.blurred_targets, &self.blurs, self.pixel_weight)?;
+            losses.push(loss);
+            d_images.push(d);
+        }
+        let grads = self.renderer.backward_batch(&frame, &d_images)?;
+        Ok(losses.into_iter().zip(grads).collect())
+    }
+}

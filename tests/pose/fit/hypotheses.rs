@@ -1,0 +1,92 @@
+//! `PoseFit::run`'s hypothesis phase renders every hypothesis of a step as one batch, in
+//! lock-step; its results (each step's report and pose, the hypotheses' energies, the choice, the
+//! final pose, cancellation) are those of running the hypotheses one after the other, bit for
+//! bit.
+
+use std::ops::ControlFlow;
+
+use diffsil::pose::fit::{stride_hypotheses, PoseFit, Schedule, Stage, StepReport, Stop};
+use diffsil::pose::skin::Pose;
+
+use super::fit_from_rest;
+
+/// A short schedule: 4 steps per hypothesis, then one blurred step of the chosen one.
+fn schedule() -> Schedule {
+    Schedule { hypothesis_steps: 4, stages: vec![Stage { blur: Schedule::COARSE_BLUR, steps: 1 }], convergence: None }
+}
+
+/// The fit of seed 3 at 24², fitting the inflation too (its own Adam per hypothesis).
+fn fit() -> (PoseFit, Vec<Pose>) {
+    let (mut fit, model, _) = fit_from_rest(24, 3);
+    fit.set_inflation_rate(0.01).unwrap();
+    (fit, stride_hypotheses(&model, 0.3).unwrap())
+}
+
+/// What [`sequentially`] saw.
+struct Sequential {
+    /// Each step's report and the pose parameters after it.
+    steps: Vec<(StepReport, Vec<f32>)>,
+    /// The hypotheses' energies.
+    energies: Vec<f64>,
+    /// The final energy.
+    energy: f64,
+}
+
+/// The run as it went before batches: each hypothesis in turn, the best one, its stage.
+fn sequentially(fit: &mut PoseFit, schedule: &Schedule, starts: &[Pose]) -> Sequential {
+    let mut steps = Vec::new();
+    let mut energies = Vec::new();
+    let mut states = Vec::new();
+    for start in starts {
+        fit.restart(start).unwrap();
+        fit.set_blur(schedule.stages[0].blur).unwrap();
+        for _ in 0..schedule.hypothesis_steps {
+            let report = fit.step().unwrap();
+            steps.push((report, fit.pose().to_params()));
+        }
+        energies.push(fit.energy().unwrap());
+        states.push(fit.state());
+    }
+    let chosen = (0..energies.len()).min_by(|&a, &b| energies[a].total_cmp(&energies[b])).unwrap();
+    fit.set_state(states.swap_remove(chosen)).unwrap();
+    let report = fit.step().unwrap();
+    steps.push((report, fit.pose().to_params()));
+    fit.set_blur(0.0).unwrap();
+    let energy = fit.energy().unwrap();
+    Sequential { steps, energies, energy }
+}
+
+#[test]
+fn batched_hypotheses_equal_hypotheses_in_turn() {
+    let schedule = schedule();
+    let (mut reference, starts) = fit();
+    let expected = sequentially(&mut reference, &schedule, &starts);
+    assert_eq!(expected.steps.len(), 3 * 4 + 1);
+
+    let (mut batched, _) = fit();
+    let mut seen = Vec::new();
+    let report = batched
+        .run(&schedule, &starts, |fit, p| {
+            seen.push((p.report, fit.pose().to_params()));
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(report.stop, Stop::Finished);
+    assert_eq!(seen.len(), expected.steps.len());
+    for (k, (got, want)) in seen.iter().zip(&expected.steps).enumerate() {
+        assert_eq!(got, want, "step {}", k + 1);
+    }
+    assert_eq!(report.hypothesis_energies, expected.energies);
+    assert_eq!(report.energy, expected.energy);
+    assert_eq!(batched.pose(), reference.pose());
+    assert_eq!(batched.inflation(), reference.inflation());
+
+    // Cancelled in the second step of the second hypothesis: the fit is where it was then.
+    let (mut cancelled, _) = fit();
+    let report = cancelled
+        .run(&schedule, &starts, |_, p| if p.step == 6 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) })
+        .unwrap();
+    assert_eq!((report.stop, report.steps, report.chosen), (Stop::Cancelled, 6, 1));
+    assert_eq!(report.hypothesis_energies, expected.energies[..1]);
+    assert_eq!(cancelled.pose().to_params(), expected.steps[5].1);
+}
