@@ -47,7 +47,9 @@
 //! ```
 //!
 //! Several cameras go into one [`Renderer::render`] call and their gradients add up in
-//! [`Renderer::backward`]. For a custom projection or a 2D problem, [`Renderer::render_screen`]
+//! [`Renderer::backward`]. Many meshes of one topology (poses, people, frames) go into one
+//! [`Renderer::render_batch`] / [`Renderer::squared_error_step_batch`] call as [`Instance`]s,
+//! each with its own cameras: one GPU submission for the whole batch. For a custom projection or a 2D problem, [`Renderer::render_screen`]
 //! takes pixel coordinates per vertex and [`Renderer::backward_screen`] returns `∂L/∂(2D vertex)`.
 //!
 //! # What is computed

@@ -36,6 +36,7 @@ pub(crate) enum ViewInput<'a> {
 /// The 3D input of a batch: instances that share one topology, each with its own vertex
 /// positions and views, rendered together (validated by the renderer).
 #[derive(Clone, Copy)]
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))] // only the GPU engine reads it (the CPU's batches run per instance)
 pub(crate) struct BatchInput<'a> {
     /// Every instance's positions, instance after instance (`vertex_count` each).
     pub positions: &'a [Vec3],
