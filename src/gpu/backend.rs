@@ -3,8 +3,9 @@
 //!
 //! - **Created once, reused.** The pipelines are compiled when the backend is created
 //!   (`pipelines.rs`). Buffers and bind groups are created for a frame *shape* (topology, number
-//!   of views, image sizes, supersampling, 2D or 3D input) and reused for every frame of that shape
-//!   (`buffers.rs`): per frame only the frame uniform, the inputs (positions and cameras, or screen
+//!   of views, image sizes, supersampling, 2D or 3D input and, for 3D, the number of input
+//!   positions: a batch's instances) and reused for every frame of that shape (`buffers.rs`):
+//!   per frame only the frame uniform, the inputs (positions and cameras, or screen
 //!   vertices) and `∂L/∂I` are written. Bind groups come from the bindings reflected at build time,
 //!   by variable name (`bindings.rs`).
 //! - **One submission each.** A forward is one command buffer (all stages, all views, and the

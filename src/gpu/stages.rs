@@ -34,6 +34,9 @@
 //! All views of a frame go through each stage in one dispatch: per-view buffers are concatenated
 //! (screen vertices `view · V + v`, edge slots `view · E + e`, pixels and tiles at the offsets of
 //! [`GpuView`]), and the frame uniform ([`FrameUniform`](crate::mirror::FrameUniform)) holds every view's constants.
+//! A batch (`Renderer::render_batch`) is one frame whose views are every view of every instance:
+//! "view" in the table is then instance × view, and `positions` holds the instances' vertices
+//! back to back, `project` reading view `k`'s from [`GpuView::vertex_offset`].
 //!
 //! ## Tile size
 //!
