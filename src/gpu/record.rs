@@ -327,6 +327,7 @@ mod tests {
         assert_eq!(forward.stages(), ["project", "bin_count", "scan", "bin_fill", "coverage", "resolve", "edges"]);
         forward.check_reads_follow_writes().unwrap();
         assert_ne!(out.images[0], out.images[2], "both instances rendered the same positions");
+        let buffers = backend.frame.as_ref().map(|f| f.positions.clone()).unwrap();
 
         let d_images: Vec<Vec<f32>> = params.iter().map(|p| vec![1.0; p.pixel_count()]).collect();
         let refs: Vec<&[f32]> = d_images.iter().map(|d| d.as_slice()).collect();
@@ -349,6 +350,12 @@ mod tests {
             assert_eq!(step.stages(), stages);
             step.check_reads_follow_writes().unwrap();
         }
+        // The buffers of a batch shape are made once and reused; another instance count is another
+        // shape.
+        assert!(backend.frame.as_ref().is_some_and(|f| f.positions == buffers), "the batch's buffers were made again");
+        let one = ViewInput::World { positions: &positions[..5], cameras: &cameras[..2] };
+        backend.forward(&topology, &params[..2], one, &[], ForwardMode::Images).unwrap();
+        assert!(backend.frame.as_ref().is_some_and(|f| f.positions != buffers));
     }
 
     #[test]
