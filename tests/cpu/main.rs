@@ -8,6 +8,8 @@ mod common;
 
 mod bad_input;
 mod camera;
+mod clip;
+mod clip_scenes;
 mod closed_form;
 mod coincident;
 mod forward;
