@@ -141,6 +141,9 @@ fn shared_clipped_edge_leaves_no_crack() {
     let (image, stats) = render(&scene);
     assert_eq!(stats.clipped_triangles, 2);
     assert_eq!(stats.culled_triangles, 0);
+    // The outline only: two side edges, the far edge, and the clip line (one piece per triangle).
+    // Were the diagonal's new vertex not shared, its two halves would be open boundaries too.
+    assert_eq!(stats.candidate_edges, 5);
     let exact =
         scenes::reference_image(&scene.camera, &scenes::positions_f64(&scene.mesh), &scene.mesh, Default::default());
     let full: Vec<usize> = (0..exact.len()).filter(|&p| exact[p] == 1.0).collect();
