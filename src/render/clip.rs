@@ -139,6 +139,7 @@ impl ClipView {
         let mut new_vertices = Vec::new();
         let mut keys: HashMap<(u32, u32, bool), u32> = HashMap::new();
         let mut on_plane = Vec::new();
+        let mut is_on_plane = vec![false; n];
         let mut out = Vec::with_capacity(triangles.len() + triangles.len() / 4);
         let (mut clipped, mut culled) = (0u32, 0u32);
         let planes = [(false, view.near as f64), (true, view.far as f64)];
@@ -162,7 +163,8 @@ impl ClipView {
                 let (u, w) = (t[k], t[(k + 1) % 3]);
                 let du = depth(u);
                 if du >= view.near as f64 && du <= view.far as f64 {
-                    if side(u) != Side::Inside && !on_plane.contains(&u) {
+                    if side(u) != Side::Inside && !is_on_plane[u as usize] {
+                        is_on_plane[u as usize] = true;
                         on_plane.push(u);
                     }
                     polygon.push(u);
