@@ -104,10 +104,43 @@ fn rotation_rows(view: &ViewParams) -> [DVec3; 3] {
     [view.row0, view.row1, view.row2].map(|r| DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64))
 }
 
+/// The topologies of the last few clipped views, reused while the clipped triangle list stays the
+/// same (building one sorts every edge of the mesh; in a fit the clipped set rarely changes).
+#[derive(Default)]
+pub(crate) struct TopologyCache(Vec<Arc<Topology>>);
+
+/// How many clipped topologies a renderer keeps.
+const CACHED_TOPOLOGIES: usize = 8;
+
+impl TopologyCache {
+    /// The topology of `triangles` over `vertex_count` vertices: a cached one with the same
+    /// triangles, or a new one (then cached, the oldest dropped).
+    fn get(&mut self, vertex_count: usize, triangles: Vec<[u32; 3]>) -> Result<Arc<Topology>> {
+        if let Some(k) =
+            self.0.iter().position(|t| t.vertex_count() == vertex_count && t.triangles() == triangles.as_slice())
+        {
+            let topology = self.0.remove(k);
+            self.0.push(topology.clone());
+            return Ok(topology);
+        }
+        let topology = Arc::new(Topology::new(vertex_count, triangles)?);
+        if self.0.len() == CACHED_TOPOLOGIES {
+            self.0.remove(0);
+        }
+        self.0.push(topology.clone());
+        Ok(topology)
+    }
+}
+
 impl ClipView {
     /// Clips the triangles of one view, or `None` when none needs it (the view renders as
-    /// without clipping). `triangles` index `positions`.
-    pub fn new(view: &ViewParams, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Option<ClipView>> {
+    /// without clipping). `triangles` index `positions`; `cache` keeps recent clipped topologies.
+    pub fn new(
+        view: &ViewParams,
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        cache: &mut TopologyCache,
+    ) -> Result<Option<ClipView>> {
         let camera: Vec<Vec3> = positions.iter().map(|&p| camera_space(view, p)).collect();
         let side = |v: u32| {
             let d = -camera[v as usize].z;
@@ -208,7 +241,7 @@ impl ClipView {
                 out.push([polygon[0], polygon[i], polygon[i + 1]]);
             }
         }
-        let topology = Arc::new(Topology::new(n + new_vertices.len(), out)?);
+        let topology = cache.get(n + new_vertices.len(), out)?;
         Ok(Some(ClipView {
             topology,
             screen,

@@ -50,6 +50,7 @@ pub struct Renderer {
     last_backward: Vec<BackwardStats>,
     engine: Box<dyn Engine>,
     note: Option<String>,
+    clip_topologies: clip::TopologyCache,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -65,7 +66,13 @@ impl Renderer {
     /// A renderer on the CPU engine. Errors if the settings are invalid.
     pub fn new(settings: RenderSettings) -> Result<Renderer> {
         views::raster_params(&settings, 1, 1)?;
-        Ok(Renderer { settings, last_backward: Vec::new(), engine: Box::new(CpuEngine), note: None })
+        Ok(Renderer {
+            settings,
+            last_backward: Vec::new(),
+            engine: Box::new(CpuEngine),
+            note: None,
+            clip_topologies: clip::TopologyCache::default(),
+        })
     }
 
     /// A renderer on `backend`. Errors if the settings are invalid, or for `Backend::Gpu` when no
@@ -154,7 +161,7 @@ impl Renderer {
     /// call of its own, and then so is every other view of the call.
     pub fn render(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
         let (views, params) = views::world_views(&self.settings, cameras)?;
-        let clips = views::clip_views(&views, mesh)?;
+        let clips = views::clip_views(&views, mesh, &mut self.clip_topologies)?;
         if clips.iter().all(Option::is_none) {
             let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
             let rendered = self.engine.forward(mesh.topology(), &params, input)?;

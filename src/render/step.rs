@@ -88,7 +88,7 @@ impl Renderer {
             target.expect_size("target", camera.width, camera.height)?;
         }
         let (views, params) = super::views::world_views(&self.settings, cameras)?;
-        let clips = super::views::clip_views(&views, mesh)?;
+        let clips = super::views::clip_views(&views, mesh, &mut self.clip_topologies)?;
         let (out, view_grads) = if clips.iter().all(Option::is_none) {
             let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
             let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;

@@ -123,8 +123,12 @@ pub(super) fn view_to_3d(view: &ViewParams, positions: &[Vec3], screen_grads: &[
 }
 
 /// Each view's clipped geometry, or `None` for a view rendered as without clipping.
-pub(super) fn clip_views(views: &[ViewParams], mesh: &crate::Mesh) -> Result<Vec<Option<super::clip::ClipView>>> {
-    views.iter().map(|view| super::clip::ClipView::new(view, mesh.positions(), mesh.triangles())).collect()
+pub(super) fn clip_views(
+    views: &[ViewParams],
+    mesh: &crate::Mesh,
+    cache: &mut super::clip::TopologyCache,
+) -> Result<Vec<Option<super::clip::ClipView>>> {
+    views.iter().map(|view| super::clip::ClipView::new(view, mesh.positions(), mesh.triangles(), cache)).collect()
 }
 
 /// [`Error::InvalidSettings`] when a gradient overflowed f32 (finite inputs can: ∂L/∂I near the f32
