@@ -433,3 +433,26 @@ fn bunny_close_up_matches_finite_differences() {
         assert!(fd.abs() > 1e-2 && rel <= 1e-3, "direction {k}: {a} vs {fd} ({rel:.3e})");
     }
 }
+
+#[test]
+fn one_renderer_over_many_clipped_scenes_renders_each_as_a_fresh_one() {
+    // The renderer reuses clipped topologies while a view's clipped triangle list stays the same:
+    // a different list (another scene, or the same mesh moved) must get its own.
+    let mut shared = Renderer::new(RenderSettings::default()).unwrap();
+    let mut scenes_and_moved = Vec::new();
+    for scene in scenes::all(32) {
+        let mut moved = scene.clone();
+        moved.camera.near *= 1.05;
+        moved.camera.far *= 0.97;
+        scenes_and_moved.push(scene);
+        scenes_and_moved.push(moved);
+    }
+    for round in 0..2 {
+        for scene in &scenes_and_moved {
+            let (fresh, stats) = render(scene);
+            let frame = shared.render(&scene.mesh, &[scene.camera]).unwrap();
+            assert_eq!(frame.stats()[0], stats, "{} round {round}", scene.name);
+            assert_eq!(frame.images()[0], fresh, "{} round {round}: image differs from a fresh renderer's", scene.name);
+        }
+    }
+}
