@@ -63,6 +63,7 @@ impl Engine for CpuEngine {
                 culled_triangles: state.culled_triangles,
                 candidate_edges: state.candidates.len() as u32,
                 tile_size: state.params.tile_size,
+                clipped_triangles: 0, // clipping runs before the engine (render/clip.rs)
             })
             .collect();
         let (views, images) = rendered.into_iter().unzip();

@@ -3,9 +3,14 @@
 /// Per-view numbers from a forward.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {
-    /// Triangles dropped because a vertex was behind the near plane, beyond the far plane or
-    /// beyond [`COORD_LIMIT`](crate::COORD_LIMIT).
+    /// Triangles dropped, drawing nothing and getting no gradient: those wholly at or behind the
+    /// near plane or at or beyond the far plane, those with a non-finite camera-space vertex, and
+    /// those (clipped or not) with a vertex projected beyond [`COORD_LIMIT`](crate::COORD_LIMIT).
     pub culled_triangles: u32,
+    /// Triangles crossing the near or far plane, drawn clipped to the part between them (their
+    /// new vertices chained to the originals in the backward). Views given in screen space have
+    /// no depth and are never clipped.
+    pub clipped_triangles: u32,
     /// Edges that may lie on the silhouette (contour, boundary or one-sided non-manifold).
     pub candidate_edges: u32,
     /// Tile side in pixels chosen for binning.

@@ -52,6 +52,7 @@ fn render_stats(out: &ForwardOutput) -> Vec<RenderStats> {
             culled_triangles: out.culled[k],
             candidate_edges: out.candidates[k],
             tile_size: out.tile_sizes[k],
+            clipped_triangles: 0, // clipping runs before the engine (render/clip.rs)
         })
         .collect()
 }

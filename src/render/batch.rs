@@ -6,6 +6,11 @@
 //! buffer (each view reads its instance's from its `vertex_offset`). On the CPU engine the
 //! instances run side by side with rayon, each through the engine's ordinary per-call path.
 //! Either way the results are those of separate calls.
+//!
+//! A batch in which some view needs near/far clipping (`render/clip.rs`) is run as one
+//! [`Renderer::render`] / [`Renderer::squared_error_step`] call per instance instead: a clipped
+//! view has its own topology, so it cannot share the batch's dispatches. The results are the
+//! same; only the single submission is lost for that batch.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -14,7 +19,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::views;
-use super::{Renderer, Step, Targets};
+use super::{Frame, Renderer, Step, Targets};
 use crate::cpu::CpuEngine;
 use crate::engine::{BackwardStats, BatchInput, Engine, FrameRef, FrameState, RenderStats, StepOutput, ViewInput};
 use crate::mirror::{RasterParams, ViewParams};
@@ -34,10 +39,12 @@ pub struct Instance<'a> {
 }
 
 /// What the backward of a batch needs: one state for the whole batch (an engine with a joint
-/// batch path), or one per instance (instances run separately on the CPU engine).
+/// batch path), one per instance (instances run separately on the CPU engine), or one frame per
+/// instance (a batch with clipped views, rendered by `Renderer::render` instance by instance).
 enum BatchState {
     Joint(Box<dyn FrameState>),
     Separate(Vec<Box<dyn FrameState>>),
+    Clipped(Vec<Frame>),
 }
 
 /// The result of [`Renderer::render_batch`]: every instance's images and what the backward needs.
@@ -98,10 +105,12 @@ struct Prepared {
     positions: Vec<Vec3>,
     offsets: Vec<u32>,
     ranges: Vec<Range<usize>>,
+    /// Whether some view of some instance crosses its near or far plane (see the module docs).
+    clipped: bool,
 }
 
 impl Prepared {
-    fn new(renderer: &Renderer, instances: &[Instance<'_>]) -> Result<Prepared> {
+    fn new(renderer: &mut Renderer, instances: &[Instance<'_>]) -> Result<Prepared> {
         let Some(first) = instances.first() else {
             return Err(Error::EmptyBatch);
         };
@@ -111,11 +120,16 @@ impl Prepared {
         let mut views = Vec::new();
         let mut ranges = Vec::with_capacity(instances.len());
         let mut offsets = Vec::new();
+        let mut clipped = false;
         for (instance, item) in instances.iter().enumerate() {
             if !Arc::ptr_eq(item.mesh.topology(), &topology) {
                 return Err(Error::TopologyMismatch { instance });
             }
             let (v, p) = views::world_views(&renderer.settings, item.cameras)?;
+            if !clipped {
+                let clips = views::clip_views(&v, item.mesh, &mut renderer.clip_topologies)?;
+                clipped = clips.iter().any(Option::is_some);
+            }
             let offset = u32::try_from(instance as u64 * n as u64).map_err(|_| Error::GpuLimit {
                 limit: "vertices of a batch (u32)",
                 needed: instances.len() as u64 * n as u64,
@@ -132,7 +146,7 @@ impl Prepared {
         for item in instances {
             positions.extend_from_slice(item.mesh.positions());
         }
-        Ok(Prepared { topology, params, views, positions, offsets, ranges })
+        Ok(Prepared { topology, params, views, positions, offsets, ranges, clipped })
     }
 
     fn input(&self) -> BatchInput<'_> {
@@ -154,7 +168,8 @@ impl Prepared {
 /// `∂L/∂(screen vertex)` of the views of instance `range` → `∂L/∂(3D vertex)` of the instance,
 /// checked finite: the code [`Renderer::backward`] runs, so the result is the same bits.
 fn chain_instance(positions: &[Vec3], views: &[ViewParams], screen: &[Vec<Vec2>], what: &str) -> Result<Vec<Vec3>> {
-    let grads = views::chain_to_3d(positions, views, screen);
+    let screen: Vec<_> = screen.iter().map(|g| views::ViewGradient::Screen(g)).collect();
+    let grads = views::chain_to_3d(positions, views, &screen);
     views::check_finite_gradients(what, None, &grads, |g: Vec3| g.is_finite())?;
     Ok(grads)
 }
@@ -175,6 +190,21 @@ impl Renderer {
     /// [`Renderer::render`] rejects for an instance.
     pub fn render_batch(&mut self, instances: &[Instance<'_>]) -> Result<BatchFrame> {
         let batch = Prepared::new(self, instances)?;
+        if batch.clipped {
+            let frames = instances.iter().map(|i| self.render(i.mesh, i.cameras)).collect::<Result<Vec<_>>>()?;
+            let images = frames.iter().flat_map(|f| f.images().iter().cloned()).collect();
+            let stats = frames.iter().flat_map(|f| f.stats().iter().copied()).collect();
+            return Ok(BatchFrame {
+                images,
+                stats,
+                topology: batch.topology,
+                params: batch.params,
+                positions: batch.positions,
+                views: batch.views,
+                ranges: batch.ranges,
+                state: BatchState::Clipped(frames),
+            });
+        }
         let (images, stats, state) = match self.engine.forward_batch(&batch.topology, &batch.params, batch.input()) {
             Some(rendered) => {
                 let rendered = rendered?;
@@ -241,6 +271,16 @@ impl Renderer {
             }
         }
         self.last_backward.clear();
+        if let BatchState::Clipped(frames) = &frame.state {
+            let mut grads = Vec::with_capacity(frames.len());
+            let mut stats = Vec::new();
+            for (f, d) in frames.iter().zip(d_images) {
+                grads.push(self.backward(f, d)?);
+                stats.extend_from_slice(self.last_backward_stats());
+            }
+            self.last_backward = stats;
+            return Ok(grads);
+        }
         let n = frame.topology.vertex_count();
         let positions = |i: usize| &frame.positions[i * n..(i + 1) * n];
         let (screen, stats): (Vec<Vec<Vec<Vec2>>>, Vec<BackwardStats>) = match &frame.state {
@@ -257,6 +297,8 @@ impl Renderer {
                 per_instance.reverse();
                 (per_instance, stats)
             }
+            // Handled above, before any engine state is touched.
+            BatchState::Clipped(_) => (Vec::new(), Vec::new()),
             BatchState::Separate(states) => {
                 if self.is_gpu() {
                     return Err(Error::InvalidFrame(
@@ -340,6 +382,16 @@ impl Renderer {
             }
         }
         let batch = Prepared::new(self, instances)?;
+        if batch.clipped {
+            let mut steps = Vec::with_capacity(instances.len());
+            let mut stats = Vec::new();
+            for (instance, t) in instances.iter().zip(targets) {
+                steps.push(self.squared_error_step(instance.mesh, instance.cameras, t)?);
+                stats.extend_from_slice(self.last_backward_stats());
+            }
+            self.last_backward = stats;
+            return Ok(steps);
+        }
         let flat: Vec<&Image> = targets.iter().flat_map(|t| t.images.iter()).collect();
         let ids: Vec<u64> = targets.iter().map(|t| t.id).collect();
         let step = self.engine.squared_error_step_batch(&batch.topology, &batch.params, batch.input(), &ids, &flat);

@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
+use super::clip::ClipView;
 use crate::engine::{FrameRef, FrameState, RenderStats};
 use crate::mirror::{RasterParams, ViewParams};
 use crate::scene::mesh::Topology;
@@ -28,6 +29,29 @@ pub(super) enum Source {
     World { positions: Vec<Vec3>, views: Vec<ViewParams> },
 }
 
+/// One view of a frame rendered by an engine call of its own (a frame with clipped views).
+pub(super) struct Part {
+    /// The view's raster constants (one).
+    pub params: Vec<RasterParams>,
+    /// The engine's state of that call.
+    pub state: Box<dyn FrameState>,
+    /// The clipped geometry the view was rendered from (`None`: the mesh, from 3D).
+    pub clip: Option<ClipView>,
+}
+
+/// The engine state of a frame whose views each have their own ([`Frame::parts`]).
+pub(super) struct NoState;
+
+impl FrameState for NoState {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn screen_vertices(&self, _view: usize) -> Option<Vec<Vec2>> {
+        None
+    }
+}
+
 /// The result of a forward: the images, per-view statistics, and what the backward needs.
 pub struct Frame {
     pub(super) images: Vec<Image>,
@@ -36,6 +60,10 @@ pub struct Frame {
     pub(super) params: Vec<RasterParams>,
     pub(super) source: Source,
     pub(super) state: Box<dyn FrameState>,
+    /// `Some` when a view had triangles crossing the near or far plane: then every view was
+    /// rendered by its own engine call (clipped ones from their clipped geometry), `state` is
+    /// [`NoState`], and the backward goes through the parts.
+    pub(super) parts: Option<Vec<Part>>,
 }
 
 impl std::fmt::Debug for Frame {
@@ -67,8 +95,9 @@ impl Frame {
         self.images.len()
     }
 
-    /// Projected vertex positions of view `view` (zero for clipped vertices); `None` when there is
-    /// no such view.
+    /// Projected vertex positions of view `view` (zero for vertices outside `near < depth < far`
+    /// or beyond the coordinate limit); `None` when there is no such view. For a view with clipped
+    /// triangles these are the mesh's vertices only, not the vertices clipping added.
     ///
     /// On the GPU engine, for a frame rendered from 3D input, these are computed on the CPU with
     /// the same arithmetic as the GPU's `project` stage (bit-identical; see `shaders/project.wgsl`),
@@ -76,6 +105,9 @@ impl Frame {
     pub fn screen_vertices(&self, view: usize) -> Option<Vec<Vec2>> {
         if view >= self.view_count() {
             return None;
+        }
+        if let (Some(_), Source::World { positions, views }) = (&self.parts, &self.source) {
+            return Some(positions.iter().map(|&p| views[view].project(p).0).collect());
         }
         match (self.state.screen_vertices(view), &self.source) {
             (Some(screen), _) => Some(screen),

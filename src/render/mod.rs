@@ -3,6 +3,7 @@
 //! ([`crate::engine`]); it never matches on which engine runs.
 
 pub mod batch;
+mod clip;
 mod frame;
 pub mod params;
 mod settings;
@@ -14,11 +15,12 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3};
 
 pub use crate::engine::{BackwardStats, RenderStats};
-use crate::engine::{Engine, StageTiming, ViewInput};
-use frame::Source;
+use crate::engine::{Engine, FrameRef, StageTiming, ViewInput};
 pub use frame::{Frame, ScreenView};
+use frame::{NoState, Part, Source};
 pub use settings::{frame_bytes, Backend, RenderSettings, MAX_FRAME_BYTES, MAX_PIXEL_VALUE};
 pub use step::{Step, Targets};
+use views::ViewGradient;
 
 use crate::cpu::CpuEngine;
 use crate::scene::mesh::Topology;
@@ -49,6 +51,7 @@ pub struct Renderer {
     last_backward: Vec<BackwardStats>,
     engine: Box<dyn Engine>,
     note: Option<String>,
+    clip_topologies: clip::TopologyCache,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -64,7 +67,13 @@ impl Renderer {
     /// A renderer on the CPU engine. Errors if the settings are invalid.
     pub fn new(settings: RenderSettings) -> Result<Renderer> {
         views::raster_params(&settings, 1, 1)?;
-        Ok(Renderer { settings, last_backward: Vec::new(), engine: Box::new(CpuEngine), note: None })
+        Ok(Renderer {
+            settings,
+            last_backward: Vec::new(),
+            engine: Box::new(CpuEngine),
+            note: None,
+            clip_topologies: clip::TopologyCache::default(),
+        })
     }
 
     /// A renderer on `backend`. Errors if the settings are invalid, or for `Backend::Gpu` when no
@@ -147,18 +156,55 @@ impl Renderer {
     }
 
     /// Renders `mesh` from each camera. Images may differ in size per camera.
+    ///
+    /// Triangles crossing a camera's near or far plane are drawn clipped to the part between them
+    /// ([`RenderStats::clipped_triangles`]); a view with such triangles is rendered by an engine
+    /// call of its own, and then so is every other view of the call.
     pub fn render(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
         let (views, params) = views::world_views(&self.settings, cameras)?;
-        let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
-        let rendered = self.engine.forward(mesh.topology(), &params, input)?;
-        let source = Source::World { positions: mesh.positions().to_vec(), views };
+        let clips = views::clip_views(&views, mesh, &mut self.clip_topologies)?;
+        if clips.iter().all(Option::is_none) {
+            let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
+            let rendered = self.engine.forward(mesh.topology(), &params, input)?;
+            let source = Source::World { positions: mesh.positions().to_vec(), views };
+            return Ok(Frame {
+                images: rendered.images,
+                stats: rendered.stats,
+                topology: mesh.topology().clone(),
+                params,
+                source,
+                state: rendered.state,
+                parts: None,
+            });
+        }
+        let (mut images, mut stats, mut parts) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, clip) in clips.into_iter().enumerate() {
+            let part_params = vec![params[k]];
+            let rendered = match &clip {
+                None => {
+                    let input = ViewInput::World { positions: mesh.positions(), cameras: &views[k..k + 1] };
+                    self.engine.forward(mesh.topology(), &part_params, input)?
+                }
+                Some(c) => {
+                    let input = ViewInput::Screen(std::slice::from_ref(&c.screen));
+                    let mut rendered = self.engine.forward(&c.topology, &part_params, input)?;
+                    rendered.stats[0].culled_triangles = c.culled_triangles;
+                    rendered.stats[0].clipped_triangles = c.clipped_triangles;
+                    rendered
+                }
+            };
+            images.extend(rendered.images);
+            stats.extend(rendered.stats);
+            parts.push(Part { params: part_params, state: rendered.state, clip });
+        }
         Ok(Frame {
-            images: rendered.images,
-            stats: rendered.stats,
+            images,
+            stats,
             topology: mesh.topology().clone(),
             params,
-            source,
-            state: rendered.state,
+            source: Source::World { positions: mesh.positions().to_vec(), views },
+            state: Box::new(NoState),
+            parts: Some(parts),
         })
     }
 
@@ -173,24 +219,24 @@ impl Renderer {
             params,
             source: Source::Screen,
             state: rendered.state,
+            parts: None,
         })
     }
 
     /// Backward in screen space: `∂L/∂I` per view → `∂L/∂(screen vertex)` per view.
+    ///
+    /// A frame with a view whose triangles were clipped at the near or far plane
+    /// ([`RenderStats::clipped_triangles`] > 0) has no per-vertex screen gradient there (clipping
+    /// added vertices): that is an [`Error::InvalidFrame`]; use [`Renderer::backward`].
     pub fn backward_screen(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec<Vec2>>> {
-        if d_images.len() != frame.view_count() {
-            return Err(Error::ViewCountMismatch {
-                what: "image gradients",
-                views: frame.view_count(),
-                got: d_images.len(),
-            });
+        if frame.parts.is_some() {
+            let view = frame.stats.iter().position(|s| s.clipped_triangles > 0).unwrap_or(0);
+            return Err(Error::InvalidFrame(format!(
+                "view {view} of this frame has triangles clipped at the camera's near or far plane, so its screen \
+                 gradient is not one per mesh vertex: use backward (3D), which chains the clipped vertices"
+            )));
         }
-        for ((width, height), d_image) in frame.view_sizes().into_iter().zip(d_images) {
-            d_image.expect_size("image gradient", width, height)?;
-            if let Some(p) = d_image.data().iter().position(|g| !g.is_finite()) {
-                return Err(Error::InvalidSettings(format!("image gradient has a non-finite value at pixel {p}")));
-            }
-        }
+        check_d_images(frame, d_images)?;
         self.last_backward.clear();
         if frame.view_count() == 0 {
             return Ok(Vec::new());
@@ -205,15 +251,48 @@ impl Renderer {
     }
 
     /// Backward through the cameras: `∂L/∂I` per view → `∂L/∂(3D vertex)`, summed over views.
-    /// The frame must come from [`Renderer::render`].
+    /// The frame must come from [`Renderer::render`]. Vertices added by clipping pass their
+    /// gradient to the two mesh vertices of the edge they lie on.
     pub fn backward(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec3>> {
         let Source::World { positions, views } = &frame.source else {
             return Err(Error::InvalidFrame(
                 "this frame was rendered from screen-space vertices: use backward_screen".into(),
             ));
         };
-        let screen_grads = self.backward_screen(frame, d_images)?;
-        let grads = views::chain_to_3d(positions, views, &screen_grads);
+        let Some(parts) = &frame.parts else {
+            let screen_grads = self.backward_screen(frame, d_images)?;
+            let view_grads: Vec<ViewGradient<'_>> = screen_grads.iter().map(|g| ViewGradient::Screen(g)).collect();
+            let grads = views::chain_to_3d(positions, views, &view_grads);
+            views::check_finite_gradients("backward", None, &grads, |g: Vec3| g.is_finite())?;
+            return Ok(grads);
+        };
+        check_d_images(frame, d_images)?;
+        self.last_backward.clear();
+        let mut screen_grads = Vec::with_capacity(parts.len());
+        let mut stats = Vec::with_capacity(parts.len());
+        for (k, part) in parts.iter().enumerate() {
+            let (topology, world) = match &part.clip {
+                None => (&frame.topology, Some((positions.as_slice(), &views[k..k + 1]))),
+                Some(c) => (&c.topology, None),
+            };
+            let part_ref = FrameRef { topology, params: &part.params, state: part.state.as_ref(), world };
+            let (mut grads, s) = self.engine.backward(part_ref, &[d_images[k].data()])?;
+            let grads = grads.pop().unwrap_or_default();
+            views::check_finite_gradients("backward", Some(k), &grads, |g: Vec2| g.is_finite())?;
+            screen_grads.push(grads);
+            stats.extend(s);
+        }
+        self.last_backward = stats;
+        let view_grads: Vec<ViewGradient<'_>> = parts
+            .iter()
+            .zip(&screen_grads)
+            .enumerate()
+            .map(|(k, (part, g))| match &part.clip {
+                None => ViewGradient::Screen(g),
+                Some(c) => ViewGradient::World(c.chain_to_3d(&views[k], positions, g)),
+            })
+            .collect();
+        let grads = views::chain_to_3d(positions, views, &view_grads);
         views::check_finite_gradients("backward", None, &grads, |g: Vec3| g.is_finite())?;
         Ok(grads)
     }
@@ -229,4 +308,22 @@ impl Renderer {
     pub fn gpu_stage_timings(&self) -> &[StageTiming] {
         self.engine.stage_timings()
     }
+}
+
+/// Checks `d_images` against `frame`: one per view, of its view's size, finite.
+fn check_d_images(frame: &Frame, d_images: &[Image]) -> Result<()> {
+    if d_images.len() != frame.view_count() {
+        return Err(Error::ViewCountMismatch {
+            what: "image gradients",
+            views: frame.view_count(),
+            got: d_images.len(),
+        });
+    }
+    for ((width, height), d_image) in frame.view_sizes().into_iter().zip(d_images) {
+        d_image.expect_size("image gradient", width, height)?;
+        if let Some(p) = d_image.data().iter().position(|g| !g.is_finite()) {
+            return Err(Error::InvalidSettings(format!("image gradient has a non-finite value at pixel {p}")));
+        }
+    }
+    Ok(())
 }

@@ -149,6 +149,14 @@ impl CameraGradient {
 /// Errors: an invalid camera, lengths that differ ([`Error::LengthMismatch`]).
 pub fn camera_gradient(camera: &Camera, positions: &[Vec3], screen_gradient: &[Vec2]) -> Result<CameraGradient> {
     camera.validate()?;
+    if screen_gradient.is_empty() && !positions.is_empty() {
+        return Err(Error::LengthMismatch {
+            what: "screen vertex gradients (empty: the view had triangles clipped at the near or far plane, which \
+                   have no per-vertex screen gradient; move the near plane or the camera)",
+            expected: positions.len(),
+            got: 0,
+        });
+    }
     if positions.len() != screen_gradient.len() {
         return Err(Error::LengthMismatch {
             what: "screen vertex gradients",

@@ -5,8 +5,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
 
+use super::clip::ClipView;
+use super::views::ViewGradient;
 use super::Renderer;
-use crate::engine::{RenderStats, ViewInput};
+use crate::engine::{RenderStats, StepOutput, ViewInput};
+use crate::mirror::{RasterParams, ViewParams};
 use crate::{Camera, Error, Image, Mesh, Result};
 
 static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
@@ -18,6 +21,8 @@ static NEXT_TARGETS_ID: AtomicU64 = AtomicU64::new(1);
 #[derive(Clone, Debug)]
 pub struct Targets {
     pub(super) id: u64,
+    /// One id per view, for the one-view engine calls of a step with clipped views.
+    view_ids: Vec<u64>,
     pub(super) images: Vec<Image>,
 }
 
@@ -29,7 +34,9 @@ impl Targets {
                 return Err(Error::InvalidSettings(format!("target {view} has a non-finite value at pixel {p}")));
             }
         }
-        Ok(Targets { id: NEXT_TARGETS_ID.fetch_add(1, Ordering::Relaxed), images })
+        let id = NEXT_TARGETS_ID.fetch_add(1 + images.len() as u64, Ordering::Relaxed);
+        let view_ids = (1..=images.len() as u64).map(|k| id + k).collect();
+        Ok(Targets { id, view_ids, images })
     }
 
     /// The target images.
@@ -48,7 +55,10 @@ pub struct Step {
     /// `∂L/∂(3D vertex)`, one per mesh vertex, summed over views.
     pub gradient: Vec<Vec3>,
     /// `∂L/∂(screen vertex)` per view, one per mesh vertex (what [`Step::gradient`] is chained
-    /// from; [`camera_gradient`](crate::camera_gradient) takes one view's).
+    /// from; [`camera_gradient`](crate::camera_gradient) takes one view's). Empty for a view with
+    /// triangles clipped at the near or far plane (`stats[k].clipped_triangles > 0`): clipping
+    /// adds vertices, so there is no per-vertex screen gradient (and `camera_gradient` refuses
+    /// the empty one with an error).
     pub screen_gradients: Vec<Vec<Vec2>>,
     /// Per-view statistics of the forward.
     pub stats: Vec<RenderStats>,
@@ -78,10 +88,22 @@ impl Renderer {
             target.expect_size("target", camera.width, camera.height)?;
         }
         let (views, params) = super::views::world_views(&self.settings, cameras)?;
-        let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
-        let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;
+        let clips = super::views::clip_views(&views, mesh, &mut self.clip_topologies)?;
+        let (out, view_grads) = if clips.iter().all(Option::is_none) {
+            let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
+            let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;
+            let view_grads: Vec<ViewGradient<'_>> = Vec::new();
+            (out, view_grads)
+        } else {
+            self.clipped_step(mesh, &views, &params, &clips, targets)?
+        };
         self.last_backward = out.backward;
-        let gradient = super::views::chain_to_3d(mesh.positions(), &views, &out.screen_grads);
+        let gradient = if view_grads.is_empty() {
+            let screen: Vec<ViewGradient<'_>> = out.screen_grads.iter().map(|g| ViewGradient::Screen(g)).collect();
+            super::views::chain_to_3d(mesh.positions(), &views, &screen)
+        } else {
+            super::views::chain_to_3d(mesh.positions(), &views, &view_grads)
+        };
         super::views::check_finite_gradients("squared_error_step", None, &gradient, |g: Vec3| g.is_finite())?;
         if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
             return Err(Error::InvalidSettings(format!(
@@ -97,5 +119,57 @@ impl Renderer {
             screen_gradients: out.screen_grads,
             stats: out.stats,
         })
+    }
+
+    /// [`Renderer::squared_error_step`] when a view has clipped triangles: one engine call per
+    /// view (clipped views from their clipped geometry, with their own target ids). Returns the
+    /// merged output (empty screen gradients for clipped views) and every view's gradient on its
+    /// way to 3D.
+    fn clipped_step(
+        &mut self,
+        mesh: &Mesh,
+        views: &[ViewParams],
+        params: &[RasterParams],
+        clips: &[Option<ClipView>],
+        targets: &Targets,
+    ) -> Result<(StepOutput, Vec<ViewGradient<'static>>)> {
+        let n = views.len();
+        let mut merged =
+            StepOutput { view_losses: Vec::new(), screen_grads: Vec::new(), stats: Vec::new(), backward: Vec::new() };
+        let mut view_grads = Vec::with_capacity(n);
+        for k in 0..n {
+            let part_params = [params[k]];
+            let target = std::slice::from_ref(&targets.images[k]);
+            let id = targets.view_ids[k];
+            let mut out = match &clips[k] {
+                None => {
+                    let input = ViewInput::World { positions: mesh.positions(), cameras: &views[k..k + 1] };
+                    self.engine.squared_error_step(mesh.topology(), &part_params, input, id, target)?
+                }
+                Some(c) => {
+                    let input = ViewInput::Screen(std::slice::from_ref(&c.screen));
+                    let mut out = self.engine.squared_error_step(&c.topology, &part_params, input, id, target)?;
+                    out.stats[0].culled_triangles = c.culled_triangles;
+                    out.stats[0].clipped_triangles = c.clipped_triangles;
+                    out
+                }
+            };
+            let grads = out.screen_grads.pop().unwrap_or_default();
+            super::views::check_finite_gradients("squared_error_step", Some(k), &grads, |g: Vec2| g.is_finite())?;
+            match &clips[k] {
+                None => {
+                    view_grads.push(ViewGradient::World(super::views::view_to_3d(&views[k], mesh.positions(), &grads)));
+                    merged.screen_grads.push(grads);
+                }
+                Some(c) => {
+                    view_grads.push(ViewGradient::World(c.chain_to_3d(&views[k], mesh.positions(), &grads)));
+                    merged.screen_grads.push(Vec::new());
+                }
+            }
+            merged.view_losses.extend(out.view_losses);
+            merged.stats.extend(out.stats);
+            merged.backward.extend(out.backward);
+        }
+        Ok((merged, view_grads))
     }
 }

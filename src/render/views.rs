@@ -68,22 +68,67 @@ pub(super) fn screen_views(
     Ok((params, screens))
 }
 
+/// One view's gradient on its way to 3D.
+pub(super) enum ViewGradient<'a> {
+    /// `∂L/∂(screen vertex)`, one per mesh vertex.
+    Screen(&'a [Vec2]),
+    /// Already chained to `∂L/∂(3D vertex)` (a clipped view, `render/clip.rs`).
+    World(Vec<Vec3>),
+}
+
 /// `∂L/∂(screen vertex)` per view → `∂L/∂(3D vertex)` through each view's projection Jacobian,
 /// summed over views (in view order). The same code for both engines, so the 3D gradient is
 /// bit-identical given the same 2D gradients.
-pub(super) fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], screen_grads: &[Vec<Vec2>]) -> Vec<Vec3> {
+pub(super) fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], view_grads: &[ViewGradient<'_>]) -> Vec<Vec3> {
     let mut grads = vec![Vec3::ZERO; positions.len()];
     // Per vertex, the views in order: the same sums whatever the thread count.
     grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
-        for (view, g2) in views.iter().zip(screen_grads) {
-            let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
-            if d != Vec2::ZERO {
-                let [jx, jy] = view.jacobian(positions[v]);
-                *g += jx * d.x + jy * d.y;
+        for (view, grad) in views.iter().zip(view_grads) {
+            match grad {
+                ViewGradient::Screen(g2) => {
+                    let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
+                    if d != Vec2::ZERO {
+                        let [jx, jy] = view.jacobian(positions[v]);
+                        *g += jx * d.x + jy * d.y;
+                    }
+                }
+                ViewGradient::World(g3) => {
+                    let d = g3.get(v).copied().unwrap_or(Vec3::ZERO);
+                    if d != Vec3::ZERO {
+                        *g += d;
+                    }
+                }
             }
         }
     });
     grads
+}
+
+/// One view's `∂L/∂(screen vertex)` → its share of `∂L/∂(3D vertex)`: the terms
+/// [`chain_to_3d`] adds for a [`ViewGradient::Screen`], computed alike.
+pub(super) fn view_to_3d(view: &ViewParams, positions: &[Vec3], screen_grads: &[Vec2]) -> Vec<Vec3> {
+    positions
+        .par_iter()
+        .with_min_len(4096)
+        .enumerate()
+        .map(|(v, &p)| {
+            let d = screen_grads.get(v).copied().unwrap_or(Vec2::ZERO);
+            if d == Vec2::ZERO {
+                return Vec3::ZERO;
+            }
+            let [jx, jy] = view.jacobian(p);
+            jx * d.x + jy * d.y
+        })
+        .collect()
+}
+
+/// Each view's clipped geometry, or `None` for a view rendered as without clipping.
+pub(super) fn clip_views(
+    views: &[ViewParams],
+    mesh: &crate::Mesh,
+    cache: &mut super::clip::TopologyCache,
+) -> Result<Vec<Option<super::clip::ClipView>>> {
+    views.iter().map(|view| super::clip::ClipView::new(view, mesh.positions(), mesh.triangles(), cache)).collect()
 }
 
 /// [`Error::InvalidSettings`] when a gradient overflowed f32 (finite inputs can: ∂L/∂I near the f32

@@ -128,10 +128,14 @@ impl Extrinsics {
 /// (focal lengths and principal point), [`Camera::from_opencv`] (a calibration), or, for a camera
 /// on a sphere around a point given by angles, [`Orbit::camera`].
 ///
-/// Points whose depth along the viewing direction is not strictly between `near` and `far` are
-/// *clipped*: a triangle with such a vertex is dropped from the silhouette (counted in
-/// [`RenderStats::culled_triangles`](crate::RenderStats)) and gets no gradient. Nothing there
-/// produces NaN.
+/// Only what lies between the `near` and `far` planes (depth along the viewing direction) is
+/// drawn: [`Renderer::render`](crate::Renderer::render) clips a triangle crossing either plane to
+/// the part between them (counted in [`RenderStats::clipped_triangles`](crate::RenderStats)), and
+/// the backward differentiates the clipped geometry; a triangle wholly behind `near` or beyond
+/// `far` is dropped ([`RenderStats::culled_triangles`](crate::RenderStats)). For a perspective
+/// camera the clipped vertices lie at depth `near` and project far off-centre when `near` is tiny
+/// (beyond [`COORD_LIMIT`](crate::COORD_LIMIT) they cull their triangle): raise `near` for
+/// close-ups. Nothing there produces NaN.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Position of the eye, world space.
@@ -142,7 +146,7 @@ pub struct Camera {
     pub up: Vec3,
     /// Perspective or orthographic.
     pub projection: Projection,
-    /// Near clipping depth (> 0 for perspective).
+    /// Near clipping depth (> 0 for perspective; orthographic cameras may use 0, the eye's plane).
     pub near: f32,
     /// Far clipping depth (> near).
     pub far: f32,

@@ -150,32 +150,25 @@ fn duplicate_triangles_change_nothing() {
 }
 
 #[test]
-fn vertex_behind_the_camera_culls_its_triangles() {
+fn vertex_behind_the_camera_clips_its_triangles() {
     let sphere = diffsil::shapes::icosphere(2);
     let cam = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.9, 32, 32);
-    // Pull vertex 0 far behind the eye.
+    // Pull vertex 0 far behind the eye: its triangles cross the near plane and are drawn clipped
+    // (tests/cpu/clip.rs checks such images and gradients against the exact-area oracle).
     let mut positions = sphere.positions().to_vec();
     positions[0] = Vec3::new(0.3, 0.2, 5.0);
     let mesh = Mesh::with_topology(positions.clone(), sphere.topology().clone()).unwrap();
     let incident = mesh.triangles().iter().filter(|t| t.contains(&0)).count() as u32;
     let mut r = renderer();
     let frame = r.render(&mesh, &[cam]).unwrap();
-    assert_eq!(frame.stats()[0].culled_triangles, incident);
+    assert_eq!((frame.stats()[0].clipped_triangles, frame.stats()[0].culled_triangles), (incident, 0));
     let mut rng = crate::common::fd::Rng::new(9);
     let w = vec![Image::from_vec(32, 32, rng.weights(1024)).unwrap()];
     let grads = r.backward(&frame, &w).unwrap();
     assert!(frame.images()[0].data().iter().all(|v| v.is_finite()));
     assert!(grads.iter().all(|g| g.is_finite()));
-    assert_eq!(grads[0], Vec3::ZERO, "a clipped vertex gets no gradient");
-    // The rest renders exactly as the mesh without those triangles (now an open mesh).
-    let kept: Vec<[u32; 3]> = mesh.triangles().iter().copied().filter(|t| !t.contains(&0)).collect();
-    let open = Mesh::new(positions, kept).unwrap();
-    let reference = r.render(&open, &[cam]).unwrap();
-    assert_eq!(reference.stats()[0].culled_triangles, 0);
-    assert_eq!(frame.images(), reference.images());
+    assert_ne!(grads[0], Vec3::ZERO, "the vertex behind moves its clipped triangles");
     assert!(frame.images()[0].data().contains(&1.0), "the rest of the mesh must still render");
-    let expected = r.backward(&reference, &w).unwrap();
-    assert!(grads.iter().zip(&expected).all(|(a, b)| (*a - *b).length() <= 1e-5 * (1.0 + b.length())));
     // The eye inside the mesh (every triangle has some vertex behind it or not): no NaN either.
     let inside = Camera::perspective(Vec3::new(0.1, 0.0, 0.2), Vec3::new(0.0, 0.0, -1.0), 1.2, 16, 16);
     let frame = r.render(&sphere, &[inside]).unwrap();

@@ -124,3 +124,34 @@ fn bad_batches_are_clear_errors() {
     d_images[0][0].data_mut()[4] = f32::NAN;
     assert!(matches!(renderer.backward_batch(&frame, &d_images), Err(Error::InvalidSettings(_))));
 }
+
+/// A batch in which one view crosses its near plane runs instance by instance through the
+/// clipping path (`render`, `backward`, `squared_error_step`): the same results as separate
+/// calls, and the clipped view really is clipped.
+#[test]
+fn cpu_batch_with_a_clipped_view_equals_separate_calls() {
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let (meshes, mut cameras) = scene(3, 21);
+    // Instance 1's first camera: the near plane through the blob's centre.
+    let camera = &mut cameras[1][0];
+    camera.near = (camera.target - camera.eye).length();
+    let batch = instances(&meshes, &cameras);
+    let frame = renderer.render_batch(&batch).unwrap();
+    assert!(frame.stats(1)[0].clipped_triangles > 0, "the scene must clip");
+    let d_images = image_gradients(&cameras, 4);
+    let grads = renderer.backward_batch(&frame, &d_images).unwrap();
+    let batch_stats = renderer.last_backward_stats().to_vec();
+    let targets = targets(&meshes, &cameras);
+    let refs: Vec<&Targets> = targets.iter().collect();
+    let steps = renderer.squared_error_step_batch(&batch, &refs).unwrap();
+    let mut separate_stats = Vec::new();
+    for (i, (mesh, cams)) in meshes.iter().zip(&cameras).enumerate() {
+        let single = renderer.render(mesh, cams).unwrap();
+        assert_eq!(frame.images(i), single.images(), "instance {i}: images differ");
+        assert_eq!(frame.stats(i), single.stats(), "instance {i}: stats differ");
+        assert_eq!(grads[i], renderer.backward(&single, &d_images[i]).unwrap(), "instance {i}: gradient differs");
+        separate_stats.extend_from_slice(renderer.last_backward_stats());
+        assert_eq!(steps[i], renderer.squared_error_step(mesh, cams, &targets[i]).unwrap(), "instance {i}: step");
+    }
+    assert_eq!(batch_stats, separate_stats);
+}

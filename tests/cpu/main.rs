@@ -9,6 +9,8 @@ mod common;
 mod bad_input;
 mod batch;
 mod camera;
+mod clip;
+mod clip_scenes;
 mod closed_form;
 mod coincident;
 mod forward;

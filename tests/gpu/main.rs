@@ -9,6 +9,9 @@ mod common;
 mod backend;
 mod bad_input;
 mod batch;
+mod clip;
+#[path = "../cpu/clip_scenes.rs"]
+mod clip_scenes;
 mod coincident;
 mod exact;
 mod golden;
