@@ -63,7 +63,7 @@ impl Renderer {
     /// A renderer on the CPU engine. Errors if the settings are invalid.
     pub fn new(settings: RenderSettings) -> Result<Renderer> {
         views::raster_params(&settings, 1, 1)?;
-        Ok(Renderer { settings, last_backward: Vec::new(), engine: Box::new(CpuEngine), note: None })
+        Ok(Renderer { settings, last_backward: Vec::new(), engine: Box::new(CpuEngine::default()), note: None })
     }
 
     /// A renderer on `backend`. Errors if the settings are invalid, or for `Backend::Gpu` when no
