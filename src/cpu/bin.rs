@@ -322,12 +322,10 @@ impl TileDiv for Divide {
 
 /// Appends `(slots[t], first + k)` for each wanted tile `t` in the tile range of the `k`-th
 /// box of `chunk` ([`triangle_tiles`] from the triangle's snapped box, computed here with
-/// `div`). `wanted` is the tile range `[tx0, ty0, tx1, ty1]` that holds every wanted tile: a
-/// triangle whose range misses it is passed over without looking at its tiles.
+/// `div`).
 fn tile_pairs<D: TileDiv>(
     div: D,
     range: &TileRange,
-    wanted: [usize; 4],
     slots: &[u32],
     chunk: &[[i32; 4]],
     first: u32,
@@ -344,9 +342,6 @@ fn tile_pairs<D: TileDiv>(
         }
         let (tx0, tx1) = (div.div(x0.max(0) as u64), div.div(x1 as u64).min(last_x));
         let (ty0, ty1) = (div.div(y0.max(0) as u64), div.div(y1 as u64).min(last_y));
-        if tx1 < wanted[0] || ty1 < wanted[1] || tx0 > wanted[2] || ty0 > wanted[3] {
-            continue;
-        }
         for ty in ty0..=ty1 {
             for &slot in &slots[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
                 if slot != u32::MAX {
@@ -381,13 +376,6 @@ pub fn bin_tiles(
     lists: usize,
 ) -> Vec<Bins> {
     let range = TileRange::of_grid(params, grid);
-    // The tile range that holds every wanted tile.
-    let tiles_x = range.tiles_x;
-    let mut wanted = [usize::MAX, usize::MAX, 0, 0];
-    for (t, _) in slots.iter().enumerate().filter(|(_, &s)| s != u32::MAX) {
-        let (x, y) = (t % tiles_x, t / tiles_x);
-        wanted = [wanted[0].min(x), wanted[1].min(y), wanted[2].max(x), wanted[3].max(y)];
-    }
     if lists == 0 {
         return Vec::new();
     }
@@ -398,8 +386,8 @@ pub fn bin_tiles(
             // (list, triangle) pairs in triangle order, then sorted by list (stably).
             let (mut pairs, first) = (Vec::new(), (task * TRIANGLES_PER_TASK) as u32);
             match range.shift {
-                Some(shift) => tile_pairs(Shift(shift), &range, wanted, slots, chunk, first, &mut pairs),
-                None => tile_pairs(Divide(range.tile_units), &range, wanted, slots, chunk, first, &mut pairs),
+                Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, &mut pairs),
+                None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, &mut pairs),
             }
             if pairs.is_empty() {
                 return None;
