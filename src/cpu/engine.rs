@@ -23,6 +23,9 @@ use crate::{Error, Image, Result};
 pub struct CpuEngine {
     /// View states of dropped frames, for reuse.
     spare: Arc<Mutex<Vec<ViewState>>>,
+    /// Sample-mask buffers of earlier forwards (a frame does not keep its masks: the backward
+    /// does not read them).
+    spare_masks: Vec<Vec<u32>>,
 }
 
 /// Most view states [`CpuEngine`] keeps for reuse.
@@ -93,8 +96,13 @@ impl Engine for CpuEngine {
             let image = render_view(params, &mut state, topology);
             (state, Image::from_vec(params.width, params.height, image).expect("image sized by the raster"))
         };
-        let states = self.take_states(params.len());
-        let rendered: Vec<(ViewState, Image)> = states.into_par_iter().enumerate().map(render_one).collect();
+        let mut states = self.take_states(params.len());
+        for state in &mut states {
+            state.masks = self.spare_masks.pop().unwrap_or_default();
+        }
+        let mut rendered: Vec<(ViewState, Image)> = states.into_par_iter().enumerate().map(render_one).collect();
+        self.spare_masks.extend(rendered.iter_mut().map(|(state, _)| std::mem::take(&mut state.masks)));
+        self.spare_masks.truncate(MAX_SPARE_VIEWS);
         let stats = rendered
             .iter()
             .map(|(state, _)| RenderStats {

@@ -26,7 +26,8 @@ pub struct ViewState {
     pub candidates: Vec<(u32, i32)>,
     /// Triangles culled because a vertex was clipped.
     pub culled_triangles: u32,
-    /// The sample masks of the forward (kept only so that the next forward reuses the buffer).
+    /// The sample masks of the forward (the backward does not read them: the CPU engine takes them
+    /// back for its next forward as soon as the forward ends, and a frame keeps none).
     pub masks: Vec<u32>,
     /// The face orientations of the forward (kept, like `masks`, for reuse).
     pub orientation: Vec<i8>,
