@@ -48,6 +48,32 @@ pub fn triangle_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]
     TileRange::new(params).of(snapped, tri)
 }
 
+/// The snapped bounding box `[xmin, ymin, xmax, ymax]` (fixed-point units) of a triangle whose
+/// vertices are all valid; a culled triangle (a clipped vertex) gets this, which no tile range
+/// meets.
+pub const CULLED_BOX: [i32; 4] = [i32::MAX, i32::MAX, i32::MIN, i32::MIN];
+
+/// Every triangle's snapped bounding box `[xmin, ymin, xmax, ymax]`, or [`CULLED_BOX`] when a
+/// vertex is clipped: what the CPU `coverage` pass writes on its way, and what [`bin_tiles`]
+/// reads.
+pub fn snapped_boxes(snapped: &[[i32; 2]], triangles: &[[u32; 3]]) -> Vec<[i32; 4]> {
+    triangles
+        .iter()
+        .map(|tri| {
+            let v = tri.map(|i| snapped[i as usize]);
+            if v.contains(&INVALID_SNAPPED_VERTEX) {
+                return CULLED_BOX;
+            }
+            [
+                v[0][0].min(v[1][0]).min(v[2][0]),
+                v[0][1].min(v[1][1]).min(v[2][1]),
+                v[0][0].max(v[1][0]).max(v[2][0]),
+                v[0][1].max(v[1][1]).max(v[2][1]),
+            ]
+        })
+        .collect()
+}
+
 /// [`triangle_tiles`] with its divisions prepared once (shifts when the tile side in fixed-point
 /// units is a power of two, as it is for F = 1, 2, 4, 8, 16).
 #[derive(Clone, Copy, Debug)]
@@ -60,16 +86,24 @@ struct TileRange {
     shift: Option<u32>,
     /// Last tile column and row.
     last: [u32; 2],
+    /// Tiles per row.
+    tiles_x: usize,
 }
 
 impl TileRange {
     fn new(params: &RasterParams) -> TileRange {
-        let tile_units = params.units as u64 * params.tile_size as u64;
+        TileRange::of_grid(params, CellGrid::tiles(params))
+    }
+
+    /// The ranges over the cells of `grid` rather than the tiles.
+    fn of_grid(params: &RasterParams, grid: CellGrid) -> TileRange {
+        let tile_units = grid.cell_units as u64;
         TileRange {
             limit: [params.width as i64 * params.units as i64, params.height as i64 * params.units as i64],
             tile_units,
             shift: tile_units.is_power_of_two().then(|| tile_units.trailing_zeros()),
-            last: [(params.width - 1) / params.tile_size, (params.height - 1) / params.tile_size],
+            last: [grid.cells_x - 1, grid.cells_y - 1],
+            tiles_x: grid.cells_x as usize,
         }
     }
 
@@ -102,6 +136,63 @@ impl TileRange {
             self.tile(hi[0]).min(self.last[0]),
             self.tile(hi[1]).min(self.last[1]),
         ])
+    }
+}
+
+/// A grid of square cells over the image, `cell_units` fixed-point units on a side, for the CPU
+/// backward's occluder lists ([`bin_tiles`]). The tiles of [`RasterParams::tile_size`] are one
+/// such grid ([`CellGrid::tiles`]); the CPU backward uses finer cells when the triangles are
+/// smaller than a pixel ([`CellGrid::for_extent`]), so that a segment's occluder scan reads the
+/// few triangles near it instead of every triangle of its pixel. Which grid lists the occluders
+/// does not change the result: any list that holds every triangle whose box meets a segment's
+/// box gives the same intervals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CellGrid {
+    /// Cell side, fixed-point units.
+    pub cell_units: u32,
+    /// Cells per row.
+    pub cells_x: u32,
+    /// Cell rows.
+    pub cells_y: u32,
+}
+
+impl CellGrid {
+    /// Most cells in a grid of [`CellGrid::for_extent`] (coarser cells beyond).
+    pub const MAX_CELLS: u64 = 1 << 22;
+
+    /// The grid of `cell_units`-unit cells over the image of `params`.
+    pub fn new(params: &RasterParams, cell_units: u32) -> CellGrid {
+        let cells = |pixels: u32| (pixels as u64 * params.units as u64).div_ceil(cell_units as u64) as u32;
+        CellGrid { cell_units, cells_x: cells(params.width), cells_y: cells(params.height) }
+    }
+
+    /// The grid of the tiles of `params` (`tile_size` pixels on a side).
+    pub fn tiles(params: &RasterParams) -> CellGrid {
+        CellGrid { cell_units: params.units * params.tile_size, cells_x: params.tiles_x, cells_y: params.tiles_y }
+    }
+
+    /// Cells about twice the mean snapped extent of the `count` non-culled triangles (the sum of
+    /// their capped extents is `extent_sum` units, as for [`tile_size`]): a power of two of at
+    /// least 1/16 pixel (one unit for F < 4) and at most a tile, and no more than
+    /// [`CellGrid::MAX_CELLS`] cells.
+    pub fn for_extent(params: &RasterParams, extent_sum: u64, count: u64) -> CellGrid {
+        let tile_units = params.units * params.tile_size;
+        let mean = if count == 0 { tile_units as f64 } else { extent_sum as f64 / count as f64 };
+        let floor = (params.units / 16).max(1);
+        let mut units = ((2.0 * mean).ceil().max(1.0).min(tile_units as f64) as u32).next_power_of_two();
+        units = units.clamp(floor, tile_units);
+        loop {
+            let grid = CellGrid::new(params, units);
+            if units >= tile_units || grid.count() as u64 <= Self::MAX_CELLS {
+                return if units >= tile_units { CellGrid::tiles(params) } else { grid };
+            }
+            units *= 2;
+        }
+    }
+
+    /// Number of cells.
+    pub fn count(&self) -> usize {
+        self.cells_x as usize * self.cells_y as usize
     }
 }
 
@@ -230,29 +321,22 @@ impl TileDiv for Divide {
 }
 
 /// Appends `(slots[t], first + k)` for each wanted tile `t` in the tile range of the `k`-th
-/// triangle of `chunk` ([`triangle_tiles`], computed here with `div`).
-#[allow(clippy::too_many_arguments)]
+/// box of `chunk` ([`triangle_tiles`] from the triangle's snapped box, computed here with
+/// `div`).
 fn tile_pairs<D: TileDiv>(
     div: D,
     range: &TileRange,
-    tiles_x: usize,
     slots: &[u32],
-    snapped: &[[i32; 2]],
-    chunk: &[[u32; 3]],
+    chunk: &[[i32; 4]],
     first: u32,
     pairs: &mut Vec<(u32, u32)>,
 ) {
+    let tiles_x = range.tiles_x;
     let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
-    for (k, tri) in chunk.iter().enumerate() {
-        let [a, b, c] = tri.map(|i| snapped[i as usize]);
-        // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
-        if a[0] == INVALID_SNAPPED_VERTEX[0] || b[0] == INVALID_SNAPPED_VERTEX[0] || c[0] == INVALID_SNAPPED_VERTEX[0] {
-            continue;
-        }
-        let x0 = a[0].min(b[0]).min(c[0]) as i64 - 1;
-        let y0 = a[1].min(b[1]).min(c[1]) as i64 - 1;
-        let x1 = a[0].max(b[0]).max(c[0]) as i64 + 1;
-        let y1 = a[1].max(b[1]).max(c[1]) as i64 + 1;
+    for (k, b) in chunk.iter().enumerate() {
+        // A culled triangle's box is CULLED_BOX, whose x1 is negative.
+        let (x0, y0) = (b[0] as i64 - 1, b[1] as i64 - 1);
+        let (x1, y1) = (b[2] as i64 + 1, b[3] as i64 + 1);
         if x1 < 0 || y1 < 0 || x0 >= range.limit[0] || y0 >= range.limit[1] {
             continue;
         }
@@ -271,31 +355,42 @@ fn tile_pairs<D: TileDiv>(
 /// Triangles per parallel task of [`bin_tiles`].
 const TRIANGLES_PER_TASK: usize = 4096;
 
-/// The lists of [`bin`] for some tiles only, built in parallel: tile `t` is wanted when
+/// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]), built
+/// in parallel: cell `t` (row-major) is wanted when
 /// `slots[t] != u32::MAX`, and its list is number `slots[t]` (`0..lists`). The lists come in
-/// parts, one per task of consecutive triangles: list `n` is the concatenation over the returned
-/// parts of `part.tile(n)`, which holds the same triangles as [`bin`]'s list, in triangle order.
+/// parts, one per task of consecutive triangles that lists any (tasks that list none are left
+/// out): list `n` is the concatenation over the returned parts of `part.tile(n)`, which holds the same triangles as [`bin`]'s list, in triangle order.
 /// Used by the CPU backward, which needs lists only where silhouette segments with a non-zero
 /// incoming gradient lie.
+///
+/// Reads the triangles' snapped boxes (`boxes`, one per triangle, as [`snapped_boxes`] gives them
+/// and the CPU `coverage` pass writes them) rather than their snapped vertices: one sequential
+/// pass, no gather.
 pub fn bin_tiles(
     params: &RasterParams,
+    grid: CellGrid,
     screen: &[ScreenVertex],
-    snapped: &[[i32; 2]],
     triangles: &[[u32; 3]],
+    boxes: &[[i32; 4]],
     slots: &[u32],
     lists: usize,
 ) -> Vec<Bins> {
-    let tiles_x = params.tiles_x as usize;
-    let range = TileRange::new(params);
-    triangles
+    let range = TileRange::of_grid(params, grid);
+    if lists == 0 {
+        return Vec::new();
+    }
+    boxes
         .par_chunks(TRIANGLES_PER_TASK)
         .enumerate()
         .map(|(task, chunk)| {
             // (list, triangle) pairs in triangle order, then sorted by list (stably).
             let (mut pairs, first) = (Vec::new(), (task * TRIANGLES_PER_TASK) as u32);
             match range.shift {
-                Some(shift) => tile_pairs(Shift(shift), &range, tiles_x, slots, snapped, chunk, first, &mut pairs),
-                None => tile_pairs(Divide(range.tile_units), &range, tiles_x, slots, snapped, chunk, first, &mut pairs),
+                Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, &mut pairs),
+                None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, &mut pairs),
+            }
+            if pairs.is_empty() {
+                return None;
             }
             let mut part = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
             for &(slot, _) in &pairs {
@@ -314,8 +409,9 @@ pub fn bin_tiles(
                 part.triangles[*c as usize] = t;
                 *c += 1;
             }
-            part
+            Some(part)
         })
+        .flatten()
         .collect()
 }
 
@@ -411,7 +507,8 @@ mod tests {
                 slots[t] = wanted.len() as u32;
                 wanted.push(t);
             }
-            let parts = bin_tiles(&params, &screen, &snapped, &triangles, &slots, wanted.len());
+            let boxes = snapped_boxes(&snapped, &triangles);
+            let parts = bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len());
             for (slot, &t) in wanted.iter().enumerate() {
                 let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
                 let b: Vec<_> = parts.iter().flat_map(|p| p.tile(slot)).map(|(i, b, v)| (i, *b, *v)).collect();

@@ -4,14 +4,14 @@
 //! For each candidate edge the stage walks the pixels the segment crosses (a scanline DDA: the
 //! rows it spans, then the columns within each row), clips the segment to each pixel with
 //! Liang–Barsky, removes the parts whose outside is covered by another triangle (exact intervals
-//! along the segment, from the triangles binned in the pixel's tile), and applies the closed form
+//! along the segment, from the triangles binned in the cells its box meets), and applies the closed form
 //! of ARCHITECTURE.md, *The method* ([`crate::reference::closed_form`]). Each edge writes only its own slot: no atomics, and
 //! the result does not depend on the thread count.
 
 use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
-use super::bin::{self, Bins};
+use super::bin::{self, Bins, CellGrid};
 use super::edges;
 use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
@@ -116,8 +116,9 @@ fn coincident_rank(screen: &[ScreenVertex], topology: &Topology, e: u32) -> u32 
 /// One piece of a candidate edge: its part in one pixel with a non-zero incoming gradient.
 #[derive(Clone, Copy, Debug)]
 struct Segment {
-    /// Tile of the pixel (row-major tiles of `tile_size` pixels), then its list in the bins.
-    tile: u32,
+    /// The cells of the occluder grid ([`CellGrid`]) whose lists hold the segment's occluders
+    /// ([`segment_cells`]): `[cx0, cy0, cx1, cy1]`, inclusive.
+    cells: [u32; 4],
     /// Parameter interval of the edge inside the pixel.
     s: (f64, f64),
     /// `∂L/∂I` of the pixel times `p1 − p0` (halved for a segment on a pixel border).
@@ -138,7 +139,14 @@ fn edge_geometry(screen: &[ScreenVertex], edge: [u32; 2], inside: i32) -> Option
 
 /// Appends the segments of `va → vb` in the pixels it crosses with a non-zero `∂L/∂I`, in walk
 /// order: the rows it spans, then the columns within each row, each clipped by Liang–Barsky.
-fn edge_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, out: &mut Vec<Segment>) {
+fn edge_segments(
+    params: &RasterParams,
+    grid: &CellGrid,
+    d_image: &[f32],
+    va: DVec2,
+    vb: DVec2,
+    out: &mut Vec<Segment>,
+) {
     let d = vb - va;
     let (w, h) = (params.width as f64, params.height as f64);
     let mut s = (0.0, 1.0);
@@ -172,10 +180,33 @@ fn edge_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, o
             if g == 0.0 {
                 continue;
             }
-            let tile = (i as u32 / params.tile_size) * params.tiles_x + j as u32 / params.tile_size;
-            out.push(Segment { tile, s: c, g });
+            out.push(Segment { cells: segment_cells(params, grid, va, d, c), s: c, g });
         }
     }
+}
+
+/// The cells `[cx0, cy0, cx1, cy1]` of `grid` that hold every triangle whose float box meets
+/// the box of the part `c` of `va + s·d`: those that the box, shrunk by a quarter unit on each
+/// side (or reduced to its centre when narrower than half a unit), meets, within the grid.
+///
+/// Why they are enough: a triangle whose float box holds a point `p` of the segment's box is
+/// listed in every cell that its snapped box, grown by one unit, meets; snapping moves a vertex
+/// by at most half a unit, so that grown box holds every point within half a unit of `p`, and
+/// the shrunk box has such a point (a quarter unit from `p` at most; the quarter unit left over
+/// absorbs any rounding in the scaling to units). A segment inside one pixel thus meets one tile
+/// even where it ends on the pixel's border, as the pixel's own tile did.
+fn segment_cells(params: &RasterParams, grid: &CellGrid, va: DVec2, d: DVec2, c: (f64, f64)) -> [u32; 4] {
+    let (p, q) = (va + c.0 * d, va + c.1 * d);
+    let (lo, hi) = (p.min(q) * params.units as f64, p.max(q) * params.units as f64);
+    let cell = grid.cell_units as f64;
+    let range = |lo: f64, hi: f64, last: u32| {
+        let (a, b) = if hi - lo >= 0.5 { (lo + 0.25, hi - 0.25) } else { ((lo + hi) / 2.0, (lo + hi) / 2.0) };
+        let index = |x: f64| ((x / cell).floor().max(0.0) as u32).min(last);
+        (index(a), index(b))
+    };
+    let (x0, x1) = range(lo.x, hi.x, grid.cells_x - 1);
+    let (y0, y1) = range(lo.y, hi.y, grid.cells_y - 1);
+    [x0, y0, x1, y1]
 }
 
 /// Whether sorted `intervals` leave no gap in `c`: then the sweep of [`visible_weights`] adds no
@@ -201,11 +232,13 @@ struct Scratch {
 }
 
 /// Endpoint weights `[∫(1 − s), ∫s]` over the visible part of `segment`: the parts of its
-/// parameter interval whose outside is covered by no triangle of its tile's list, and that no
-/// coincident edge ranking before the edge (`rank`, [`coincident_rank`]) carries.
+/// parameter interval whose outside is covered by no triangle of the lists of its cells (a
+/// triangle listed in several is tested again, which adds the same interval again and changes
+/// nothing), and that no coincident edge ranking before the edge (`rank`, [`coincident_rank`])
+/// carries. `lists` maps a cell of the grid (`cells_x` per row) to its list in `parts`.
 #[allow(clippy::too_many_arguments)]
 fn visible_weights(
-    parts: &[Bins],
+    (parts, lists, cells_x): (&[Bins], &[u32], usize),
     (va, vb, outward): (DVec2, DVec2, DVec2),
     rank: u32,
     segment: &Segment,
@@ -223,39 +256,43 @@ fn visible_weights(
     // further can uncover any of it: the segment is hidden and the scan stops.
     let Scratch { hits, intervals } = scratch;
     intervals.clear();
-    for part in parts {
-        let list = part.offsets[segment.tile as usize] as usize..part.offsets[segment.tile as usize + 1] as usize;
-        if list.is_empty() {
-            continue;
-        }
-        let list_start = list.start;
-        let (boxes, vertices) = (&part.boxes[list.clone()], &part.vertices[list]);
-        // The entries whose box meets the segment's, gathered without a branch per entry (about
-        // one in five passes, unpredictably).
-        if hits.len() < boxes.len() {
-            hits.resize(boxes.len(), 0);
-        }
-        let mut count = 0;
-        for (k, b) in boxes.iter().enumerate() {
-            hits[count] = k as u32;
-            count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
-        }
-        for &k in &hits[..count] {
-            let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
-            // A triangle on the inside of the edge's line (closed half-plane) covers no point just
-            // outside it: the usual case (the edge's own faces and their neighbours). The signs
-            // are exact (f32 differences, their products and one sum of two in f64).
-            // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
-            let side = q.map(|p| (p - va).dot(outward));
-            let yields = part.triangles[list_start + k as usize] < rank;
-            if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
+    let [cx0, cy0, cx1, cy1] = segment.cells.map(|c| c as usize);
+    for cell in (cy0..=cy1).flat_map(|cy| cy * cells_x + cx0..=cy * cells_x + cx1) {
+        let n = lists[cell] as usize;
+        for part in parts {
+            let list = part.offsets[n] as usize..part.offsets[n + 1] as usize;
+            if list.is_empty() {
                 continue;
             }
-            if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
-                let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
-                intervals.insert(at, iv);
-                if covers(intervals, c) {
-                    return (0.0, 0.0);
+            let list_start = list.start;
+            let (boxes, vertices) = (&part.boxes[list.clone()], &part.vertices[list]);
+            // The entries whose box meets the segment's, gathered without a branch per entry (about
+            // one in five passes, unpredictably).
+            if hits.len() < boxes.len() {
+                hits.resize(boxes.len(), 0);
+            }
+            let mut count = 0;
+            for (k, b) in boxes.iter().enumerate() {
+                hits[count] = k as u32;
+                count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
+            }
+            for &k in &hits[..count] {
+                let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+                // A triangle on the inside of the edge's line (closed half-plane) covers no point just
+                // outside it: the usual case (the edge's own faces and their neighbours). The signs
+                // are exact (f32 differences, their products and one sum of two in f64).
+                // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
+                let side = q.map(|p| (p - va).dot(outward));
+                let yields = part.triangles[list_start + k as usize] < rank;
+                if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
+                    continue;
+                }
+                if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
+                    let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
+                    intervals.insert(at, iv);
+                    if covers(intervals, c) {
+                        return (0.0, 0.0);
+                    }
                 }
             }
         }
@@ -274,7 +311,7 @@ fn visible_weights(
 
 /// Sums the visible weights of an edge's segments (in walk order) into its slot.
 fn accumulate(
-    parts: &[Bins],
+    parts: (&[Bins], &[u32], usize),
     geometry: (DVec2, DVec2, DVec2),
     rank: u32,
     segments: &[Segment],
@@ -302,17 +339,22 @@ const EDGES_PER_TASK: usize = 64;
 /// The gradient slot of every candidate edge: walks the pixels it crosses, keeps the visible
 /// parts of its segments and applies the closed form. Occluder lists are built only for the tiles
 /// the edges cross with a non-zero `∂L/∂I` (the CPU's lazy form of the `bin` stage: most tiles
-/// hold no silhouette, and where `∂L/∂I` is zero nothing is looked up).
+/// hold no silhouette, and where `∂L/∂I` is zero nothing is looked up), and over the cells of
+/// `grid` rather than the tiles ([`CellGrid::for_extent`]: cells smaller than a pixel when the
+/// triangles are).
 ///
-/// Reads screen and snapped vertices, triangles, the candidates `(edge, side)` of the `edges`
+/// Reads screen vertices, the triangles and their snapped boxes (as the `coverage` pass writes
+/// them, [`bin::snapped_boxes`]), the candidates `(edge, side)` of the `edges`
 /// stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
-/// The result is the same as with the full bins of [`bin::bin`]: an occluder
-/// of a segment overlaps its tile, so it is in that tile's list either way.
+/// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
+/// segment is in the list of one of the segment's cells, and a triangle found twice or one that
+/// is no occluder adds nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_grad(
     params: &RasterParams,
+    grid: CellGrid,
     screen: &[ScreenVertex],
-    snapped: &[[i32; 2]],
+    boxes: &[[i32; 4]],
     topology: &Topology,
     candidates: &[(u32, i32)],
     d_image: &[f32],
@@ -321,34 +363,37 @@ pub fn edge_grad(
     let edges = topology.edges();
     let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
     // Walk every candidate edge once: its segments, grouped per task in candidate order.
-    let mut walks: Vec<(Vec<Segment>, Vec<u32>)> = candidates
+    let walks: Vec<(Vec<Segment>, Vec<u32>)> = candidates
         .par_chunks(EDGES_PER_TASK)
         .map(|chunk| {
             let (mut segments, mut ends) = (Vec::new(), Vec::with_capacity(chunk.len()));
             for candidate in chunk {
                 if let Some((va, vb, _)) = geometry(candidate) {
-                    edge_segments(params, d_image, va, vb, &mut segments);
+                    edge_segments(params, &grid, d_image, va, vb, &mut segments);
                 }
                 ends.push(segments.len() as u32);
             }
             (segments, ends)
         })
         .collect();
-    // Number the tiles that hold a segment (segments then address their tile by that number),
-    // and list the triangles of those tiles only.
-    let mut tile_slots = vec![u32::MAX; params.tile_count()];
-    let mut tiles = 0u32;
-    for (segments, _) in &mut walks {
+    // Number the cells that a segment meets, and list the triangles of those cells only.
+    let mut cell_lists = vec![u32::MAX; grid.count()];
+    let mut lists = 0u32;
+    let cells_x = grid.cells_x as usize;
+    for (segments, _) in &walks {
         for segment in segments {
-            let slot = &mut tile_slots[segment.tile as usize];
-            if *slot == u32::MAX {
-                *slot = tiles;
-                tiles += 1;
+            let [cx0, cy0, cx1, cy1] = segment.cells.map(|c| c as usize);
+            for cy in cy0..=cy1 {
+                for list in &mut cell_lists[cy * cells_x + cx0..=cy * cells_x + cx1] {
+                    if *list == u32::MAX {
+                        *list = lists;
+                        lists += 1;
+                    }
+                }
             }
-            segment.tile = *slot;
         }
     }
-    let parts = bin::bin_tiles(params, screen, snapped, topology.triangles(), &tile_slots, tiles as usize);
+    let parts = bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, &cell_lists, lists as usize);
     let mut results = vec![(EdgeGrad::default(), BackwardStats::default()); candidates.len()];
     results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
         |((out, chunk), (segments, ends))| {
@@ -361,7 +406,7 @@ pub fn edge_grad(
                     // The rank matters only to a segment's occluders: an edge with none skips it.
                     let rank =
                         if pieces.is_empty() { u32::MAX } else { coincident_rank(screen, topology, candidate.0) };
-                    *result = accumulate(&parts, g, rank, pieces, &mut scratch);
+                    *result = accumulate((&parts, &cell_lists, cells_x), g, rank, pieces, &mut scratch);
                 }
             }
         },
@@ -512,7 +557,15 @@ mod tests {
                 .map(|_| if rand() < 0.3 { 0.0 } else { (rand() * 2.0 - 1.0) as f32 })
                 .collect();
             let mut slots = Vec::new();
-            let stats = edge_grad(&params, &screen, &snapped, topology, &candidates, &d_image, &mut slots);
+            let boxes = bin::snapped_boxes(&snapped, topology.triangles());
+            // Occluders listed per tile, and per cell of finer grids (one not a power of two).
+            let grid = match case % 4 {
+                0 => CellGrid::tiles(&params),
+                1 => CellGrid::new(&params, params.units / 4),
+                2 => CellGrid::new(&params, params.units / 16),
+                _ => CellGrid::new(&params, 3 * params.units / 5),
+            };
+            let stats = edge_grad(&params, grid, &screen, &boxes, topology, &candidates, &d_image, &mut slots);
             let mut full = Bins::default();
             bin::bin(&params, &screen, &snapped, topology.triangles(), &mut full);
             let mut expected = BackwardStats::default();

@@ -5,8 +5,12 @@
 //! [`project_and_snap`](project::project_and_snap), for 3D input) → [`coverage`](coverage::coverage)
 //! → [`resolve`](resolve::resolve), side by side with
 //! [`face_orientations`](edges::face_orientations) → [`edges`](edges::edges).
-//! Backward: [`edge_grad`](edge_grad::edge_grad) (which bins, with [`bin::bin_tiles`], only the tiles
-//! its segments need) → [`gather`](gather::gather).
+//! Backward: [`edge_grad`](edge_grad::edge_grad) (which bins, with [`bin::bin_tiles`], only the cells
+//! its segments need, over a [`bin::CellGrid`] finer than the tiles when the triangles are smaller
+//! than a pixel) → [`gather`](gather::gather).
+//!
+//! The engine keeps the states of dropped frames and refills their buffers ([`render_view`]),
+//! so a loop of steps allocates only what it returns.
 //!
 //! The forward chooses the tile size (as [`bin::choose_tile_size`] does, from the extents the
 //! coverage pass adds up) but builds no tile lists: only the backward uses them, and only in the
@@ -14,8 +18,9 @@
 //!
 //! Where the CPU departs from the WGSL stages' shape for speed, the result is the same bit for bit
 //! (tested): coverage skips back faces it can prove redundant ([`coverage::BackFaceSkip`]) and
-//! draws from per-band (or, for small images, per-task) lists rather than tile lists; `edge_grad`
-//! lists occluders only for the tiles it needs and stops on hidden segments; `gather` scatters
+//! draws from per-band (or, for small images, per-task) lists rather than tile lists and writes
+//! every triangle's snapped box for the backward; `edge_grad` lists occluders only for the cells it
+//! needs and stops on hidden segments; `gather` scatters
 //! the candidates' slots instead of reading every edge's.
 
 pub mod bin;
@@ -29,4 +34,4 @@ pub mod resolve;
 mod view;
 
 pub use engine::CpuEngine;
-pub use view::{backward_view, forward_view, ViewState};
+pub use view::{backward_view, forward_view, render_view, ViewState};

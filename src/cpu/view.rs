@@ -7,8 +7,9 @@ use crate::engine::BackwardStats;
 use crate::mirror::{RasterParams, ScreenVertex};
 use crate::scene::mesh::Topology;
 
-/// What the forward of one view keeps for its backward.
-#[derive(Clone, Debug)]
+/// What the forward of one view keeps for its backward. Its buffers can be reused by the next
+/// forward ([`render_view`]): the CPU engine keeps the states of dropped frames for that.
+#[derive(Clone, Debug, Default)]
 pub struct ViewState {
     /// Raster constants (with the tile size the `bin` stage chose).
     pub params: RasterParams,
@@ -16,41 +17,65 @@ pub struct ViewState {
     pub screen: Vec<ScreenVertex>,
     /// Projected vertices snapped to the fixed-point grid.
     pub snapped: Vec<[i32; 2]>,
+    /// The grid of the backward's occluder lists ([`bin::CellGrid::for_extent`]).
+    pub grid: bin::CellGrid,
+    /// Every triangle's snapped bounding box ([`bin::snapped_boxes`]), written by the coverage
+    /// pass, for the backward's occluder lists.
+    pub boxes: Vec<[i32; 4]>,
     /// Candidate edges `(edge, side)` from the `edges` stage, in edge order.
     pub candidates: Vec<(u32, i32)>,
     /// Triangles culled because a vertex was clipped.
     pub culled_triangles: u32,
+    /// The sample masks of the forward (the backward does not read them: the CPU engine takes them
+    /// back for its next forward as soon as the forward ends, and a frame keeps none).
+    pub masks: Vec<u32>,
+    /// The face orientations of the forward (kept, like `masks`, for reuse).
+    pub orientation: Vec<i8>,
 }
 
 /// Forward of one view from screen vertices and their snapped positions ([`super::project::snap`], or both
 /// from [`super::project::project_and_snap`]): returns the state and the image.
 pub fn forward_view(
-    mut params: RasterParams,
+    params: RasterParams,
     screen: Vec<ScreenVertex>,
     snapped: Vec<[i32; 2]>,
     topology: &Topology,
 ) -> (ViewState, Vec<f32>) {
+    let mut state = ViewState { screen, snapped, ..ViewState::default() };
+    let image = render_view(params, &mut state, topology);
+    (state, image)
+}
+
+/// [`forward_view`] into a state whose `screen` and `snapped` hold the view's vertices: fills the
+/// rest of it, reusing its buffers (those of an earlier forward, when the sizes repeat nothing is
+/// allocated but the returned image), and returns the image.
+pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &Topology) -> Vec<f32> {
     let triangles = topology.triangles();
+    let ViewState { screen, snapped, boxes, candidates, masks, orientation, .. } = state;
+    // Every box and mask word is written by the coverage pass: resizing keeps the old values
+    // without clearing them.
+    boxes.resize(triangles.len(), [0; 4]);
+    masks.resize(params.pixel_count() * params.words_per_pixel as usize, 0);
+    orientation.resize(triangles.len(), 0);
     // Coverage and the edge classification are independent: run them side by side.
-    let ((summary, image), candidates) = rayon::join(
+    let ((summary, image), ()) = rayon::join(
         || {
-            let skip = coverage::BackFaceSkip::new(topology, &snapped);
-            let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-            let summary = coverage::coverage(&params, &snapped, triangles, skip.as_ref(), &mut masks);
+            let skip = coverage::BackFaceSkip::new(topology, snapped);
+            let summary = coverage::coverage(&params, snapped, triangles, skip.as_ref(), boxes, masks);
             let mut image = vec![0.0; params.pixel_count()];
-            resolve::resolve(&params, &masks, &mut image);
+            resolve::resolve(&params, masks, &mut image);
             (summary, image)
         },
         || {
-            let mut orientation = vec![0i8; triangles.len()];
-            edges::face_orientations(&screen, triangles, &mut orientation);
-            let mut candidates = Vec::new();
-            edges::edges(&orientation, topology, &mut candidates);
-            candidates
+            edges::face_orientations(screen, triangles, orientation);
+            edges::edges(orientation, topology, candidates);
         },
     );
     params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
-    (ViewState { params, screen, snapped, candidates, culled_triangles: summary.culled }, image)
+    state.grid = bin::CellGrid::for_extent(&params, summary.extent_sum, summary.counted);
+    state.params = params;
+    state.culled_triangles = summary.culled;
+    image
 }
 
 /// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.
@@ -58,8 +83,9 @@ pub fn backward_view(state: &ViewState, topology: &Topology, d_image: &[f32]) ->
     let mut slots = Vec::new();
     let stats = edge_grad::edge_grad(
         &state.params,
+        state.grid,
         &state.screen,
-        &state.snapped,
+        &state.boxes,
         topology,
         &state.candidates,
         d_image,

@@ -214,7 +214,7 @@ impl Renderer {
                 let rendered = (0..instances.len())
                     .into_par_iter()
                     .map(|i| {
-                        CpuEngine.forward(
+                        CpuEngine::default().forward(
                             &batch.topology,
                             &batch.params[batch.ranges[i].clone()],
                             batch.instance_input(i),
@@ -319,7 +319,7 @@ impl Renderer {
                             world,
                         };
                         let d: Vec<&[f32]> = d_images[i].iter().map(|i| i.data()).collect();
-                        CpuEngine.backward(frame_ref, &d)
+                        CpuEngine::default().backward(frame_ref, &d)
                     })
                     .collect::<Result<Vec<_>>>()?;
                 let mut stats = Vec::new();
@@ -415,7 +415,7 @@ impl Renderer {
                 .map(|i| {
                     let range = batch.ranges[i].clone();
                     let (id, images) = (targets[i].id, &targets[i].images);
-                    CpuEngine.squared_error_step(
+                    CpuEngine::default().squared_error_step(
                         &batch.topology,
                         &batch.params[range],
                         batch.instance_input(i),

@@ -70,7 +70,7 @@ impl Renderer {
         Ok(Renderer {
             settings,
             last_backward: Vec::new(),
-            engine: Box::new(CpuEngine),
+            engine: Box::new(CpuEngine::default()),
             note: None,
             clip_topologies: clip::TopologyCache::default(),
         })

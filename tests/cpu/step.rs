@@ -41,3 +41,34 @@ fn step_rejects_mismatched_targets() {
     assert_eq!(step.loss, 0.0);
     assert!(step.gradient.iter().all(|g| *g == Vec3::ZERO));
 }
+
+/// The CPU engine fills the buffers of the frames it rendered and that were dropped again: steps
+/// of other meshes, image sizes and view counts in one renderer give the bits of fresh
+/// renderers, and a frame kept alive across steps keeps its own state.
+#[test]
+fn reused_buffers_give_the_results_of_fresh_ones() {
+    let (blob, cameras) = (mesh(), cameras());
+    let sphere = diffsil::shapes::icosphere(3);
+    let mut small = cameras[1];
+    (small.width, small.height) = (17, 9);
+    let scenes: [(&diffsil::Mesh, Vec<diffsil::Camera>); 5] = [
+        (&blob, cameras.clone()),
+        (&sphere, cameras.clone()),
+        (&blob, vec![small]),
+        (&sphere, vec![cameras[0], small, cameras[1]]),
+        (&blob, cameras.clone()),
+    ];
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let kept = renderer.render(&blob, &cameras).unwrap();
+    let d_images: Vec<Image> = kept.images().iter().map(|i| Image::filled(i.width(), i.height(), 0.5)).collect();
+    let kept_gradient = Renderer::new(RenderSettings::default()).unwrap().backward(&kept, &d_images).unwrap();
+    for (k, (mesh, cameras)) in scenes.iter().enumerate() {
+        let targets = targets(mesh, cameras, Vec3::new(0.03, 0.02, 0.0));
+        let fresh =
+            Renderer::new(RenderSettings::default()).unwrap().squared_error_step(mesh, cameras, &targets).unwrap();
+        let reused = renderer.squared_error_step(mesh, cameras, &targets).unwrap();
+        assert!(fresh.loss > 0.0, "scene {k}");
+        assert_eq!((reused.loss, &reused.gradient), (fresh.loss, &fresh.gradient), "scene {k}");
+        assert_eq!(renderer.backward(&kept, &d_images).unwrap(), kept_gradient, "scene {k}");
+    }
+}

@@ -155,8 +155,9 @@ mod tests {
             assert_eq!(skip.boxes.is_empty(), case % 4 == 0, "case {case}");
             let words = params.pixel_count() * params.words_per_pixel as usize;
             let (mut all, mut culled) = (vec![0u32; words], vec![0u32; words]);
-            let a = coverage(&params, &snapped, &triangles, None, &mut all);
-            let b = coverage(&params, &snapped, &triangles, Some(&skip), &mut culled);
+            let a = coverage(&params, &snapped, &triangles, None, &mut vec![[0; 4]; triangles.len()], &mut all);
+            let b =
+                coverage(&params, &snapped, &triangles, Some(&skip), &mut vec![[0; 4]; triangles.len()], &mut culled);
             assert_eq!(a, b, "case {case}");
             assert_eq!(all, culled, "case {case}: skipping back faces changed the masks");
             // The skip has teeth: dropping every negative triangle changes the open cases.
@@ -169,7 +170,7 @@ mod tests {
                 })
                 .collect();
             let mut front = vec![0u32; words];
-            coverage(&params, &snapped, &positive, None, &mut front);
+            coverage(&params, &snapped, &positive, None, &mut vec![[0; 4]; positive.len()], &mut front);
             if case % 4 == 0 {
                 assert_eq!(front, all, "case {case}: a closed mesh's positive triangles cover it all");
             } else {

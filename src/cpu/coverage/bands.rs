@@ -17,6 +17,7 @@ pub(super) fn draw_direct(
     pass: &SetupPass<'_>,
     snapped: &[[i32; 2]],
     triangles: &[[u32; 3]],
+    boxes: &mut [[i32; 4]],
     masks: &mut [u32],
 ) -> TriangleSummary {
     let f = params.supersample as i64;
@@ -24,15 +25,16 @@ pub(super) fn draw_direct(
     {
         let (drawn, summary) = triangles
             .par_chunks(TRIANGLES_PER_TASK)
+            .zip(boxes.par_chunks_mut(TRIANGLES_PER_TASK))
             .fold(
                 || (vec![0u32; masks.len()], TriangleSummary::default()),
-                |(mut mask, summary), chunk| {
+                |(mut mask, summary), (chunk, boxes)| {
                     let mut band = Band::new(params, &mut mask, 0);
                     let full = (0, params.height as i64 * f - 1);
                     let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
                     let chunk_summary = match Shift::of(step) {
-                        Some(s) => pass.run(s, snapped, chunk, draw),
-                        None => pass.run(Divide(step), snapped, chunk, draw),
+                        Some(s) => pass.run(s, snapped, chunk, boxes, draw),
+                        None => pass.run(Divide(step), snapped, chunk, boxes, draw),
                     };
                     (mask, summary + chunk_summary)
                 },
@@ -54,6 +56,7 @@ pub(super) fn draw_in_bands(
     pass: &SetupPass<'_>,
     snapped: &[[i32; 2]],
     triangles: &[[u32; 3]],
+    boxes: &mut [[i32; 4]],
     masks: &mut [u32],
 ) -> TriangleSummary {
     let f = params.supersample as i64;
@@ -64,17 +67,20 @@ pub(super) fn draw_in_bands(
     let band_of = band_rows as i64 * f;
     let tasks: Vec<(Vec<Vec<Setup>>, TriangleSummary)> = triangles
         .par_chunks(TRIANGLES_PER_TASK)
-        .map(|chunk| {
+        .zip(boxes.par_chunks_mut(TRIANGLES_PER_TASK))
+        .map(|(chunk, boxes)| {
             let mut lists = vec![Vec::new(); bands];
             let summary = match (Shift::of(step), Shift::of(band_of)) {
-                (Some(s), Some(b)) => pass.run(s, snapped, chunk, |setup, r0, r1| push(&mut lists, b, setup, r0, r1)),
+                (Some(s), Some(b)) => {
+                    pass.run(s, snapped, chunk, boxes, |setup, r0, r1| push(&mut lists, b, setup, r0, r1))
+                }
                 (Some(s), None) => {
-                    pass.run(s, snapped, chunk, |setup, r0, r1| push(&mut lists, Divide(band_of), setup, r0, r1))
+                    pass.run(s, snapped, chunk, boxes, |setup, r0, r1| push(&mut lists, Divide(band_of), setup, r0, r1))
                 }
                 (None, Some(b)) => {
-                    pass.run(Divide(step), snapped, chunk, |setup, r0, r1| push(&mut lists, b, setup, r0, r1))
+                    pass.run(Divide(step), snapped, chunk, boxes, |setup, r0, r1| push(&mut lists, b, setup, r0, r1))
                 }
-                (None, None) => pass.run(Divide(step), snapped, chunk, |setup, r0, r1| {
+                (None, None) => pass.run(Divide(step), snapped, chunk, boxes, |setup, r0, r1| {
                     push(&mut lists, Divide(band_of), setup, r0, r1)
                 }),
             };
@@ -209,9 +215,12 @@ mod tests {
             };
             let words = params.pixel_count() * params.words_per_pixel as usize;
             let (mut a, mut b) = (vec![0u32; words], vec![0u32; words]);
-            let sa = draw_direct(&params, &pass, &snapped, &triangles, &mut a);
-            let sb = draw_in_bands(&params, &pass, &snapped, &triangles, &mut b);
+            let (mut boxes_a, mut boxes_b) = (vec![[0; 4]; triangles.len()], vec![[0; 4]; triangles.len()]);
+            let sa = draw_direct(&params, &pass, &snapped, &triangles, &mut boxes_a, &mut a);
+            let sb = draw_in_bands(&params, &pass, &snapped, &triangles, &mut boxes_b, &mut b);
             assert_eq!((sa, &a), (sb, &b), "F={f} {w}x{h}");
+            assert_eq!(boxes_a, crate::cpu::bin::snapped_boxes(&snapped, &triangles));
+            assert_eq!(boxes_a, boxes_b);
             assert!(a.iter().any(|&m| m != 0) && a.contains(&0));
         }
     }

@@ -20,8 +20,10 @@ pub use setup::TriangleSummary;
 pub use triangle::SnappedTriangle;
 
 /// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
-/// writes `masks` (`pixel_count · words_per_pixel` words). With `skip`, leaves out the negative
-/// triangles it allows (see [`BackFaceSkip`]; the masks are the same).
+/// writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
+/// snapped bounding box into `boxes` (one per triangle, as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes)
+/// computes them; the backward bins from them without reading the vertices again). With `skip`,
+/// leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are the same).
 ///
 /// The CPU works in two passes. A pass over the triangles (parallel, in chunks) sets up those
 /// that can cover a sample: a clipped vertex, a sample box (the sample positions inside the
@@ -37,6 +39,7 @@ pub fn coverage(
     snapped: &[[i32; 2]],
     triangles: &[[u32; 3]],
     skip: Option<&BackFaceSkip>,
+    boxes: &mut [[i32; 4]],
     masks: &mut [u32],
 ) -> TriangleSummary {
     let f = params.supersample as i64;
@@ -48,9 +51,9 @@ pub fn coverage(
         skip,
     };
     if masks.len() <= DIRECT_WORDS {
-        draw_direct(params, &pass, snapped, triangles, masks)
+        draw_direct(params, &pass, snapped, triangles, boxes, masks)
     } else {
-        draw_in_bands(params, &pass, snapped, triangles, masks)
+        draw_in_bands(params, &pass, snapped, triangles, boxes, masks)
     }
 }
 

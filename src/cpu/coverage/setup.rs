@@ -4,6 +4,7 @@
 use super::back_face::BackFaceSkip;
 use super::bands::Band;
 use super::triangle::{area2, is_top_left, SnappedTriangle};
+use crate::cpu::bin::CULLED_BOX;
 use crate::mirror::{RasterParams, INVALID_SNAPPED_VERTEX};
 
 /// What the per-triangle pass of [`coverage`](super::coverage) counts on the way (for the tile size of the `bin`
@@ -116,18 +117,21 @@ pub(super) struct SetupPass<'a> {
 
 impl SetupPass<'_> {
     /// Sets up the triangles of `chunk` that can cover a sample and hands each to `sink` with its
-    /// first and last sample rows; counts the triangles. `step` divides by the sample step.
+    /// first and last sample rows; counts the triangles and writes each one's snapped bounding box
+    /// into `boxes` (same length as `chunk`; [`CULLED_BOX`] for a culled one). `step` divides by
+    /// the sample step.
     #[inline(always)]
     pub(super) fn run(
         &self,
         step: impl FloorDiv,
         snapped: &[[i32; 2]],
         chunk: &[[u32; 3]],
+        boxes: &mut [[i32; 4]],
         mut sink: impl FnMut(&Setup, i64, i64),
     ) -> TriangleSummary {
         let h = self.h;
         let mut summary = TriangleSummary::default();
-        for tri in chunk {
+        for (tri, out) in chunk.iter().zip(boxes) {
             let v = tri.map(|i| snapped[i as usize]);
             // A clipped vertex is INVALID_SNAPPED_VERTEX; valid coordinates are within ±2^29.
             if v[0][0] == INVALID_SNAPPED_VERTEX[0]
@@ -135,6 +139,7 @@ impl SetupPass<'_> {
                 || v[2][0] == INVALID_SNAPPED_VERTEX[0]
             {
                 summary.culled += 1;
+                *out = CULLED_BOX;
                 continue;
             }
             let b = [
@@ -143,6 +148,7 @@ impl SetupPass<'_> {
                 v[0][0].max(v[1][0]).max(v[2][0]),
                 v[0][1].max(v[1][1]).max(v[2][1]),
             ];
+            *out = b;
             summary.extent_sum += ((b[2] as i64 - b[0] as i64).max(b[3] as i64 - b[1] as i64)).min(self.limit) as u64;
             summary.counted += 1;
             // Sample c sits at (2c + 1)·h: the first at or after lo, the last at or before hi.

@@ -233,7 +233,7 @@ mod tests {
                 let tris = [[0u32, 1, 2]];
                 let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
                 let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-                coverage(&params, &snapped, &tris, None, &mut masks);
+                coverage(&params, &snapped, &tris, None, &mut vec![[0; 4]; tris.len()], &mut masks);
                 let tri = SnappedTriangle::new(&snapped, tris[0]);
                 let h = params.half_step as i64;
                 for sy in 0..(params.height * f) as i64 {
