@@ -101,6 +101,10 @@ pub struct Options {
     /// Self-intersection weight λ; E_sl is a mean over pixels
     #[arg(long, value_name = "X", default_value = "1e-7", value_parser = finite)]
     lambda: f32,
+    /// Steps between self-intersection checks (the steps between reuse the last check's
+    /// gradient) [default: FitOptions::INTERSECTION_INTERVAL]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    intersection_interval: Option<u32>,
     /// Leg stride (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0.3", value_parser = finite)]
     stride: f32,
@@ -217,6 +221,7 @@ fn fit_options(o: &Options) -> FitOptions {
             steps: o.iterations,
             learning_rate: o.lr,
             lambda: o.lambda,
+            intersection_interval: o.intersection_interval.unwrap_or(1),
             pose_prior: 0.0,
             coarse_blur: 0.0,
             convergence: None,
@@ -228,6 +233,7 @@ fn fit_options(o: &Options) -> FitOptions {
         steps: o.iterations,
         learning_rate: o.lr,
         lambda: o.lambda,
+        intersection_interval: o.intersection_interval.unwrap_or(defaults.intersection_interval),
         pose_prior: o.prior,
         leg_stride: o.stride,
         arm_swing: o.arm_swing,

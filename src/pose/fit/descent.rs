@@ -6,7 +6,7 @@ use glam::Vec3;
 use super::inflation;
 use crate::loss::GaussianBlur;
 use crate::optim::Adam;
-use crate::pose::self_intersection::SelfIntersectionChecker;
+use crate::pose::self_intersection::{SelfIntersection, SelfIntersectionChecker};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{loss, Camera, Error, Image, Mesh, Renderer, Result};
 
@@ -100,6 +100,10 @@ pub struct PoseFit {
     inflation: f32,
     inflation_adam: Adam,
     inflation_rate: f32,
+    /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]), the last
+    /// check's result and the steps taken since it (`None`: check on the next step).
+    intersection_interval: u32,
+    intersection: Option<(SelfIntersection, u32)>,
 }
 
 /// Which groups of pose parameters a [`PoseFit`] changes; the others keep their values.
@@ -203,6 +207,8 @@ impl PoseFit {
             inflation: 0.0,
             inflation_adam: Adam::new(1.0),
             inflation_rate: 0.0,
+            intersection_interval: 1,
+            intersection: None,
         })
     }
 
@@ -270,6 +276,7 @@ impl PoseFit {
         self.adam = state.adam;
         self.inflation = state.inflation;
         self.inflation_adam = state.inflation_adam;
+        self.intersection = None;
         Ok(())
     }
 
@@ -291,6 +298,7 @@ impl PoseFit {
         self.adam = Adam::new(self.adam.learning_rate);
         self.inflation = 0.0;
         self.inflation_adam = Adam::new(self.inflation_adam.learning_rate);
+        self.intersection = None;
         Ok(())
     }
 
@@ -332,6 +340,26 @@ impl PoseFit {
         }
         self.shape_prior = weight;
         Ok(())
+    }
+
+    /// Checks for self-intersection only every `interval`-th step (≥ 1; 1, the default, checks
+    /// every step): the steps in between add the gradient of the last check's surrogate, held
+    /// for the vertices they have moved to, and report its penalty and surrogate. The check (a
+    /// BVH refit and self-traversal of the whole mesh) is a large share of a step's work on a
+    /// body of several thousand triangles, while the surrogate's gradient changes slowly from
+    /// one step to the next (the body moves a few millimetres). A restart or
+    /// [`PoseFit::set_state`] checks again on the next step. Errors on 0.
+    pub fn set_intersection_interval(&mut self, interval: u32) -> Result<()> {
+        if interval == 0 {
+            return Err(Error::InvalidSettings("the self-intersection interval must be at least 1 step".into()));
+        }
+        self.intersection_interval = interval;
+        Ok(())
+    }
+
+    /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]).
+    pub fn intersection_interval(&self) -> u32 {
+        self.intersection_interval
     }
 
     /// `E_shape` at the current shape.
@@ -490,12 +518,23 @@ impl PoseFit {
         let normals = self.set_rendered_positions(&vertices)?;
         // The self-intersection check is single-threaded and independent of the images: it runs
         // beside the render + backward. It sees the skinned vertices, without inflation.
-        let (checker, lambda) = (&mut self.checker, self.lambda);
+        // Every `intersection_interval`-th step checks; the steps between reuse that check's
+        // surrogate and gradient (see `set_intersection_interval`).
+        let lambda = self.lambda;
+        let stale = match &mut self.intersection {
+            Some((_, age)) if *age < self.intersection_interval => {
+                *age += 1;
+                true
+            }
+            _ => false,
+        };
+        let check = lambda > 0.0 && !stale;
+        let checker = &mut self.checker;
         let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
             || silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
-            || if lambda > 0.0 { checker.check(&vertices).map(Some) } else { Ok(None) },
+            || if check { checker.check(&vertices).map(Some) } else { Ok(None) },
         );
         let (silhouette, mut d_vertices) = silhouette_pass?;
         // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'
@@ -504,14 +543,17 @@ impl PoseFit {
             (Some(normals), true) => Some(inflation::gradient(&d_vertices, normals)),
             _ => None,
         };
-        let (penalty, surrogate) = match intersection? {
-            Some(result) => {
+        if let Some(result) = intersection? {
+            self.intersection = Some((result, 1));
+        }
+        let (penalty, surrogate) = match &self.intersection {
+            Some((result, _)) if lambda > 0.0 => {
                 for (g, s) in d_vertices.iter_mut().zip(&result.grad) {
                     *g += lambda * *s;
                 }
                 (result.penalty, result.surrogate)
             }
-            None => (0.0, 0.0),
+            _ => (0.0, 0.0),
         };
         let (d_pose, d_shape) = self.model.backward_with_shape(&cache, &d_vertices)?;
         let mut grads = d_pose.to_params();

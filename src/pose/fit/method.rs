@@ -18,6 +18,10 @@ pub struct FitOptions {
     pub learning_rate: f32,
     /// Self-intersection weight `λ`, ≥ 0. Default 1e-7 ([`FitSettings::lambda`]).
     pub lambda: f32,
+    /// Steps between self-intersection checks, ≥ 1 ([`PoseFit::set_intersection_interval`]; the
+    /// steps in between reuse the last check's gradient). Default
+    /// [`FitOptions::INTERSECTION_INTERVAL`].
+    pub intersection_interval: u32,
     /// Pose prior weight `μ`, ≥ 0. Default [`PoseFit::POSE_PRIOR`] (1e-3).
     pub pose_prior: f32,
     /// Leg stride of the extra starting poses, radians (0: none). Default 0.3
@@ -63,6 +67,7 @@ impl Default for FitOptions {
             steps: 300,
             learning_rate: 0.02,
             lambda: 1e-7,
+            intersection_interval: FitOptions::INTERSECTION_INTERVAL,
             pose_prior: PoseFit::POSE_PRIOR,
             leg_stride: 0.3,
             arm_swing: 0.0,
@@ -86,6 +91,9 @@ const FIT_INFLATION_DEFAULT: bool = true;
 impl FitOptions {
     /// Default step size of the inflation, as a fraction of the model's rest height per step.
     pub const INFLATION_RATE: f32 = 1e-3;
+
+    /// Default steps between self-intersection checks.
+    pub const INTERSECTION_INTERVAL: u32 = 4;
 
     /// The schedule and the starting poses [`fit`] uses for `model`.
     ///
@@ -189,6 +197,7 @@ pub fn fit(
     };
     let mut fit = PoseFit::new(model, cameras, targets, renderer, settings)?;
     fit.set_pose_prior(options.pose_prior)?;
+    fit.set_intersection_interval(options.intersection_interval)?;
     fit.set_shape_prior(options.shape_prior)?;
     fit.set_free(Free { joints: options.fit_pose, global: options.fit_global, shape: options.fit_shape });
     if options.fit_inflation {

@@ -3,6 +3,7 @@
 
 mod call;
 mod inflation;
+mod interval;
 
 use std::ops::ControlFlow;
 
