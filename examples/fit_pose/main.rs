@@ -134,6 +134,13 @@ pub struct Options {
     /// Step of the inflation per Adam step, fraction of the model's height
     #[arg(long, value_name = "X", default_value_t = FitOptions::INFLATION_RATE, value_parser = finite)]
     inflation_rate: f32,
+    /// Fit an outline nuisance beside the pose (FitOptions::fit_outline): the renders grown or
+    /// shrunk by up to one pixel before they are compared; on, off, or the library's default
+    #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
+    outline: Option<bool>,
+    /// Step of the outline nuisance per Adam step (it spans [−1, 1])
+    #[arg(long, value_name = "X", default_value_t = FitOptions::OUTLINE_RATE, value_parser = finite)]
+    outline_rate: f32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -242,6 +249,8 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_shape: o.shape,
         fit_inflation: o.inflation.unwrap_or(defaults.fit_inflation),
         inflation_rate: o.inflation_rate,
+        fit_outline: o.outline.unwrap_or(defaults.fit_outline),
+        outline_rate: o.outline_rate,
         ..defaults
     }
 }
@@ -318,12 +327,14 @@ fn fit_seed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let (mut fit, run) = (fitted.fit, fitted.report);
+    let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
             let energies: Vec<String> = run.hypothesis_energies.iter().map(|e| format!("{e:.3e}")).collect();
             println!("starting poses' energies: {} (kept {})", energies.join(", "), run.chosen + 1);
         }
         println!("stopped: {:?} after {} steps", run.stop, run.steps);
+        println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     }
     let error_m = per_vertex_error(&fit.vertices()?, &truth_vertices);
     let (lo, hi) = rest_mesh
@@ -405,7 +416,9 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let (mut fit, run) = (fitted.fit, fitted.report);
+    let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     println!("stopped: {:?} after {} steps", run.stop, run.steps);
+    println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     let after = fit.render()?;
     std::fs::create_dir_all(&o.out)?;
     let mut outcome =

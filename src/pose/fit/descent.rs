@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::inflation;
+use super::{inflation, outline};
 use crate::loss::GaussianBlur;
 use crate::optim::Adam;
 use crate::pose::self_intersection::{SelfIntersection, SelfIntersectionChecker};
@@ -38,6 +38,8 @@ pub struct FitState {
     adam: Adam,
     inflation: f32,
     inflation_adam: Adam,
+    outline: f32,
+    outline_adam: Adam,
 }
 
 /// How a [`PoseFit`] starts: the initial pose and the optimiser's settings.
@@ -100,6 +102,11 @@ pub struct PoseFit {
     inflation: f32,
     inflation_adam: Adam,
     inflation_rate: f32,
+    /// The outline nuisance `a` ([`PoseFit::set_outline`]), its Adam and its step size (0: `a`
+    /// is not fitted).
+    outline: f32,
+    outline_adam: Adam,
+    outline_rate: f32,
     /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]), the last
     /// check's result and the steps taken since it (`None`: check on the next step).
     intersection_interval: u32,
@@ -207,6 +214,9 @@ impl PoseFit {
             inflation: 0.0,
             inflation_adam: Adam::new(1.0),
             inflation_rate: 0.0,
+            outline: 0.0,
+            outline_adam: Adam::new(1.0),
+            outline_rate: 0.0,
             intersection_interval: 1,
             intersection: None,
         })
@@ -240,12 +250,17 @@ impl PoseFit {
         self.model.skin_shaped(&self.pose(), self.shape())
     }
 
-    /// Renders the current pose in every view (inflated by [`PoseFit::inflation`], as `E_sl`
-    /// sees it).
+    /// Renders the current pose in every view (inflated by [`PoseFit::inflation`] and outlined
+    /// by [`PoseFit::outline`], as `E_sl` sees it).
     pub fn render(&mut self) -> Result<Vec<Image>> {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
-        Ok(self.renderer.render(&self.mesh, &self.cameras)?.images().to_vec())
+        let outline = self.outline_setting();
+        let frame = self.renderer.render(&self.mesh, &self.cameras)?;
+        Ok(match outline {
+            Some(a) => frame.images().iter().map(|r| outline::apply(r, a).image).collect(),
+            None => frame.images().to_vec(),
+        })
     }
 
     /// The renderer (to ask for its backend name).
@@ -260,6 +275,8 @@ impl PoseFit {
             adam: self.adam.clone(),
             inflation: self.inflation,
             inflation_adam: self.inflation_adam.clone(),
+            outline: self.outline,
+            outline_adam: self.outline_adam.clone(),
         }
     }
 
@@ -276,6 +293,8 @@ impl PoseFit {
         self.adam = state.adam;
         self.inflation = state.inflation;
         self.inflation_adam = state.inflation_adam;
+        self.outline = state.outline;
+        self.outline_adam = state.outline_adam;
         self.intersection = None;
         Ok(())
     }
@@ -298,6 +317,8 @@ impl PoseFit {
         self.adam = Adam::new(self.adam.learning_rate);
         self.inflation = 0.0;
         self.inflation_adam = Adam::new(self.inflation_adam.learning_rate);
+        self.outline = 0.0;
+        self.outline_adam = Adam::new(self.outline_adam.learning_rate);
         self.intersection = None;
         Ok(())
     }
@@ -432,7 +453,7 @@ impl PoseFit {
         let vertices = self.vertices()?;
         let normals = self.normals(&vertices);
         self.mesh.set_positions(&inflation::inflate(&vertices, &normals, self.inflation))?;
-        let (_, d_vertices) = self.silhouette_pass()?;
+        let (_, d_vertices, _) = self.silhouette_pass()?;
         Ok(inflation::gradient(&d_vertices, &normals))
     }
 
@@ -455,7 +476,8 @@ impl PoseFit {
 
     /// Renders the rendered mesh, `E_sl` against the blurred targets (a mean over pixels) and its
     /// gradient with respect to the rendered vertices.
-    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>)> {
+    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>, f64)> {
+        let outline = self.outline_setting();
         silhouette_pass(
             &mut self.renderer,
             &self.mesh,
@@ -463,7 +485,69 @@ impl PoseFit {
             &self.blurred_targets,
             &self.blurs,
             self.pixel_weight,
+            outline,
         )
+    }
+
+    /// The outline nuisance `a` when it is applied (`a` ≠ 0 or fitted).
+    fn outline_setting(&self) -> Option<f32> {
+        (self.outline != 0.0 || self.outline_rate > 0.0).then_some(self.outline)
+    }
+
+    /// The outline nuisance `a` in [−1, 1]: `E_sl` compares each rendered silhouette grown
+    /// (`a > 0`) or shrunk (`a < 0`) by `|a|` of a one-pixel grey-scale dilation or erosion
+    /// (the 3×3 maximum or minimum of the coverage blended in by `|a|`) with its target, so
+    /// that masks up to one pixel too fat or too thin, thin limbs erased included, are
+    /// explained by `a` rather than by the pose. [`PoseFit::pose`] and [`PoseFit::vertices`]
+    /// never include it ([`PoseFit::render`] does). 0 unless set or fitted.
+    pub fn outline(&self) -> f32 {
+        self.outline
+    }
+
+    /// Sets the outline nuisance `a` ([`PoseFit::outline`]). Errors outside [−1, 1].
+    pub fn set_outline(&mut self, a: f32) -> Result<()> {
+        if !(a.is_finite() && (-1.0..=1.0).contains(&a)) {
+            return Err(Error::InvalidSettings(format!("outline {a}: need a number in [-1, 1]")));
+        }
+        self.outline = a;
+        Ok(())
+    }
+
+    /// The step size of the outline `a` (its own Adam's learning rate; 0, the default, does not
+    /// fit it). Each step then also descends `∂E_sl/∂a`, and `a` is kept in [−1, 1]. Errors on a
+    /// negative or non-finite rate.
+    pub fn set_outline_rate(&mut self, rate: f32) -> Result<()> {
+        if !(rate.is_finite() && rate >= 0.0) {
+            return Err(Error::InvalidSettings(format!("need a non-negative outline rate, got {rate}")));
+        }
+        self.outline_rate = rate;
+        if rate > 0.0 {
+            self.outline_adam.learning_rate = rate;
+        }
+        Ok(())
+    }
+
+    /// The outline step size (0: `a` is not fitted).
+    pub fn outline_rate(&self) -> f32 {
+        self.outline_rate
+    }
+
+    /// `∂E_sl/∂a` at the current pose, shape, inflation and outline, with the current blur
+    /// (what a step descends; one-sided at `a = 0`, the growing side's).
+    pub fn outline_gradient(&mut self) -> Result<f64> {
+        let vertices = self.vertices()?;
+        self.set_rendered_positions(&vertices)?;
+        let outline = Some(self.outline);
+        let (_, _, d_outline) = silhouette_pass(
+            &mut self.renderer,
+            &self.mesh,
+            &self.cameras,
+            &self.blurred_targets,
+            &self.blurs,
+            self.pixel_weight,
+            outline,
+        )?;
+        Ok(d_outline)
     }
 
     /// The current blur, as a fraction of the image height.
@@ -502,7 +586,13 @@ impl PoseFit {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
-        let (silhouette, _) = loss::squared_error_views(frame.images(), &self.targets)?;
+        let (silhouette, _) = match self.outline_setting() {
+            Some(a) => {
+                let outlined: Vec<Image> = frame.images().iter().map(|r| outline::apply(r, a).image).collect();
+                loss::squared_error_views(&outlined, &self.targets)?
+            }
+            None => loss::squared_error_views(frame.images(), &self.targets)?,
+        };
         let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
         let prior = self.prior_energy();
         Ok(silhouette * self.pixel_weight
@@ -529,14 +619,15 @@ impl PoseFit {
             _ => false,
         };
         let check = lambda > 0.0 && !stale;
+        let outline = self.outline_setting();
         let checker = &mut self.checker;
         let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
-            || silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
+            || silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight, outline),
             || if check { checker.check(&vertices).map(Some) } else { Ok(None) },
         );
-        let (silhouette, mut d_vertices) = silhouette_pass?;
+        let (silhouette, mut d_vertices, d_outline) = silhouette_pass?;
         // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'
         // gradient is the skinned vertices'.
         let d_inflation = match (&normals, self.inflation_rate > 0.0) {
@@ -590,6 +681,11 @@ impl PoseFit {
             self.inflation_adam.step(&mut d, &[g as f32])?;
             self.inflation = d[0];
         }
+        if self.outline_rate > 0.0 {
+            let mut a = [self.outline];
+            self.outline_adam.step(&mut a, &[d_outline as f32])?;
+            self.outline = a[0].clamp(-1.0, 1.0);
+        }
         // Adam's moments from before a group was frozen would still move it: put it back.
         for (r, values) in frozen.iter().zip(kept) {
             self.params[r.clone()].copy_from_slice(&values);
@@ -609,7 +705,9 @@ impl PoseFit {
 }
 
 /// Renders `mesh`, `E_sl` against the (blurred) `targets` as a mean over pixels (`pixel_weight`
-/// per pixel) and its gradient with respect to the mesh's vertices.
+/// per pixel), with the renders outlined by `outline` when it is `Some` (see
+/// [`PoseFit::outline`]), its gradient with respect to the mesh's vertices and `∂E_sl/∂a`
+/// (0 without an outline).
 fn silhouette_pass(
     renderer: &mut Renderer,
     mesh: &Mesh,
@@ -617,19 +715,28 @@ fn silhouette_pass(
     targets: &[Image],
     blurs: &[GaussianBlur],
     pixel_weight: f64,
-) -> Result<(f64, Vec<Vec3>)> {
+    outline: Option<f32>,
+) -> Result<(f64, Vec<Vec3>, f64)> {
     let frame = renderer.render(mesh, cameras)?;
     let mut silhouette = 0.0;
+    let mut d_outline = 0.0;
     let mut d_images = Vec::with_capacity(targets.len());
     for ((image, target), blur) in frame.images().iter().zip(targets).zip(blurs) {
-        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
+        let outlined = outline.map(|a| outline::apply(image, a));
+        let compared = outlined.as_ref().map_or(image, |o| &o.image);
+        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(compared, target, blur)?;
         silhouette += value * pixel_weight;
         for g in grad.data_mut() {
             *g = (f64::from(*g) * pixel_weight) as f32;
         }
+        if let (Some(a), Some(outlined)) = (outline, &outlined) {
+            let (d_image, d_a) = outline::backward(image, outlined, a, &grad);
+            grad = d_image;
+            d_outline += d_a;
+        }
         d_images.push(grad);
     }
-    Ok((silhouette, renderer.backward(&frame, &d_images)?))
+    Ok((silhouette, renderer.backward(&frame, &d_images)?, d_outline))
 }
 
 impl std::fmt::Debug for PoseFit {

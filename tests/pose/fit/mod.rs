@@ -4,6 +4,7 @@
 mod call;
 mod inflation;
 mod interval;
+mod outline;
 
 use std::ops::ControlFlow;
 
