@@ -101,6 +101,10 @@ pub struct Options {
     /// Self-intersection weight λ; E_sl is a mean over pixels
     #[arg(long, value_name = "X", default_value = "1e-7", value_parser = finite)]
     lambda: f32,
+    /// Steps between self-intersection checks (the steps between reuse the last check's
+    /// gradient) [default: FitOptions::INTERSECTION_INTERVAL]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    intersection_interval: Option<u32>,
     /// Leg stride (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0.3", value_parser = finite)]
     stride: f32,
@@ -130,6 +134,13 @@ pub struct Options {
     /// Step of the inflation per Adam step, fraction of the model's height
     #[arg(long, value_name = "X", default_value_t = FitOptions::INFLATION_RATE, value_parser = finite)]
     inflation_rate: f32,
+    /// Fit an outline nuisance beside the pose (FitOptions::fit_outline): the renders grown or
+    /// shrunk by up to one pixel before they are compared; on, off, or the library's default
+    #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
+    outline: Option<bool>,
+    /// Step of the outline nuisance per Adam step (it spans [−1, 1])
+    #[arg(long, value_name = "X", default_value_t = FitOptions::OUTLINE_RATE, value_parser = finite)]
+    outline_rate: f32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -217,6 +228,7 @@ fn fit_options(o: &Options) -> FitOptions {
             steps: o.iterations,
             learning_rate: o.lr,
             lambda: o.lambda,
+            intersection_interval: o.intersection_interval.unwrap_or(1),
             pose_prior: 0.0,
             coarse_blur: 0.0,
             convergence: None,
@@ -228,6 +240,7 @@ fn fit_options(o: &Options) -> FitOptions {
         steps: o.iterations,
         learning_rate: o.lr,
         lambda: o.lambda,
+        intersection_interval: o.intersection_interval.unwrap_or(defaults.intersection_interval),
         pose_prior: o.prior,
         leg_stride: o.stride,
         arm_swing: o.arm_swing,
@@ -236,6 +249,8 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_shape: o.shape,
         fit_inflation: o.inflation.unwrap_or(defaults.fit_inflation),
         inflation_rate: o.inflation_rate,
+        fit_outline: o.outline.unwrap_or(defaults.fit_outline),
+        outline_rate: o.outline_rate,
         ..defaults
     }
 }
@@ -312,12 +327,14 @@ fn fit_seed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let (mut fit, run) = (fitted.fit, fitted.report);
+    let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
             let energies: Vec<String> = run.hypothesis_energies.iter().map(|e| format!("{e:.3e}")).collect();
             println!("starting poses' energies: {} (kept {})", energies.join(", "), run.chosen + 1);
         }
         println!("stopped: {:?} after {} steps", run.stop, run.steps);
+        println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     }
     let error_m = per_vertex_error(&fit.vertices()?, &truth_vertices);
     let (lo, hi) = rest_mesh
@@ -399,7 +416,9 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let (mut fit, run) = (fitted.fit, fitted.report);
+    let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     println!("stopped: {:?} after {} steps", run.stop, run.steps);
+    println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     let after = fit.render()?;
     std::fs::create_dir_all(&o.out)?;
     let mut outcome =

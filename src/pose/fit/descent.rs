@@ -3,10 +3,10 @@
 
 use glam::Vec3;
 
-use super::inflation;
+use super::{inflation, outline};
 use crate::loss::GaussianBlur;
 use crate::optim::Adam;
-use crate::pose::self_intersection::SelfIntersectionChecker;
+use crate::pose::self_intersection::{SelfIntersection, SelfIntersectionChecker};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{loss, Camera, Error, Image, Mesh, Renderer, Result};
 
@@ -34,7 +34,8 @@ pub struct StepReport {
     pub energy: f64,
 }
 
-/// The optimiser's state: the pose parameters and Adam's moments. [`PoseFit::state`] and
+/// The optimiser's state: the pose parameters, Adam's moments, the nuisances and the last
+/// self-intersection check. [`PoseFit::state`] and
 /// [`PoseFit::set_state`] move it in and out, so that one fit can follow several hypotheses.
 #[derive(Clone, Debug)]
 pub struct FitState {
@@ -42,6 +43,11 @@ pub struct FitState {
     adam: Adam,
     inflation: f32,
     inflation_adam: Adam,
+    outline: f32,
+    outline_adam: Adam,
+    /// The last self-intersection check and the steps since (reused between checks): part of
+    /// the state so that hypotheses stepped in lock-step each keep their own.
+    intersection: Option<(SelfIntersection, u32)>,
 }
 
 /// How a [`PoseFit`] starts: the initial pose and the optimiser's settings.
@@ -104,6 +110,15 @@ pub struct PoseFit {
     inflation: f32,
     inflation_adam: Adam,
     inflation_rate: f32,
+    /// The outline nuisance `a` ([`PoseFit::set_outline`]), its Adam and its step size (0: `a`
+    /// is not fitted).
+    outline: f32,
+    outline_adam: Adam,
+    outline_rate: f32,
+    /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]), the last
+    /// check's result and the steps taken since it (`None`: check on the next step).
+    intersection_interval: u32,
+    intersection: Option<(SelfIntersection, u32)>,
 }
 
 /// Which groups of pose parameters a [`PoseFit`] changes; the others keep their values.
@@ -207,6 +222,11 @@ impl PoseFit {
             inflation: 0.0,
             inflation_adam: Adam::new(1.0),
             inflation_rate: 0.0,
+            outline: 0.0,
+            outline_adam: Adam::new(1.0),
+            outline_rate: 0.0,
+            intersection_interval: 1,
+            intersection: None,
         })
     }
 
@@ -238,12 +258,17 @@ impl PoseFit {
         self.model.skin_shaped(&self.pose(), self.shape())
     }
 
-    /// Renders the current pose in every view (inflated by [`PoseFit::inflation`], as `E_sl`
-    /// sees it).
+    /// Renders the current pose in every view (inflated by [`PoseFit::inflation`] and outlined
+    /// by [`PoseFit::outline`], as `E_sl` sees it).
     pub fn render(&mut self) -> Result<Vec<Image>> {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
-        Ok(self.renderer.render(&self.mesh, &self.cameras)?.images().to_vec())
+        let outline = self.outline_setting();
+        let frame = self.renderer.render(&self.mesh, &self.cameras)?;
+        Ok(match outline {
+            Some(a) => frame.images().iter().map(|r| outline::apply(r, a).image).collect(),
+            None => frame.images().to_vec(),
+        })
     }
 
     /// The renderer (to ask for its backend name).
@@ -258,6 +283,9 @@ impl PoseFit {
             adam: self.adam.clone(),
             inflation: self.inflation,
             inflation_adam: self.inflation_adam.clone(),
+            outline: self.outline,
+            outline_adam: self.outline_adam.clone(),
+            intersection: self.intersection.clone(),
         }
     }
 
@@ -274,6 +302,9 @@ impl PoseFit {
         self.adam = state.adam;
         self.inflation = state.inflation;
         self.inflation_adam = state.inflation_adam;
+        self.outline = state.outline;
+        self.outline_adam = state.outline_adam;
+        self.intersection = state.intersection;
         Ok(())
     }
 
@@ -295,6 +326,9 @@ impl PoseFit {
         self.adam = Adam::new(self.adam.learning_rate);
         self.inflation = 0.0;
         self.inflation_adam = Adam::new(self.inflation_adam.learning_rate);
+        self.outline = 0.0;
+        self.outline_adam = Adam::new(self.outline_adam.learning_rate);
+        self.intersection = None;
         Ok(())
     }
 
@@ -336,6 +370,27 @@ impl PoseFit {
         }
         self.shape_prior = weight;
         Ok(())
+    }
+
+    /// Checks for self-intersection only every `interval`-th step (≥ 1; 1, the default, checks
+    /// every step): the steps in between add the gradient of the last check's surrogate, held
+    /// for the vertices they have moved to, and report its penalty and surrogate. The check (a
+    /// BVH refit and self-traversal of the whole mesh) is a large share of a step's work on a
+    /// body of several thousand triangles, while the surrogate's gradient changes slowly from
+    /// one step to the next (the body moves a few millimetres). A restart checks again on the
+    /// next step; [`PoseFit::set_state`] restores the check the state was taken with (each
+    /// hypothesis keeps its own). Errors on 0.
+    pub fn set_intersection_interval(&mut self, interval: u32) -> Result<()> {
+        if interval == 0 {
+            return Err(Error::InvalidSettings("the self-intersection interval must be at least 1 step".into()));
+        }
+        self.intersection_interval = interval;
+        Ok(())
+    }
+
+    /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]).
+    pub fn intersection_interval(&self) -> u32 {
+        self.intersection_interval
     }
 
     /// `E_shape` at the current shape.
@@ -408,7 +463,7 @@ impl PoseFit {
         let vertices = self.vertices()?;
         let normals = self.normals(&vertices);
         self.mesh.set_positions(&inflation::inflate(&vertices, &normals, self.inflation))?;
-        let (_, d_vertices) = self.silhouette_pass()?;
+        let (_, d_vertices, _) = self.silhouette_pass()?;
         Ok(inflation::gradient(&d_vertices, &normals))
     }
 
@@ -431,7 +486,8 @@ impl PoseFit {
 
     /// Renders the rendered mesh, `E_sl` against the blurred targets (a mean over pixels) and its
     /// gradient with respect to the rendered vertices.
-    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>)> {
+    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>, f64)> {
+        let outline = self.outline_setting();
         silhouette_pass(
             &mut self.renderer,
             &self.mesh,
@@ -439,7 +495,69 @@ impl PoseFit {
             &self.blurred_targets,
             &self.blurs,
             self.pixel_weight,
+            outline,
         )
+    }
+
+    /// The outline nuisance `a` when it is applied (`a` ≠ 0 or fitted).
+    fn outline_setting(&self) -> Option<f32> {
+        (self.outline != 0.0 || self.outline_rate > 0.0).then_some(self.outline)
+    }
+
+    /// The outline nuisance `a` in [−1, 1]: `E_sl` compares each rendered silhouette grown
+    /// (`a > 0`) or shrunk (`a < 0`) by `|a|` of a one-pixel grey-scale dilation or erosion
+    /// (the 3×3 maximum or minimum of the coverage blended in by `|a|`) with its target, so
+    /// that masks up to one pixel too fat or too thin, thin limbs erased included, are
+    /// explained by `a` rather than by the pose. [`PoseFit::pose`] and [`PoseFit::vertices`]
+    /// never include it ([`PoseFit::render`] does). 0 unless set or fitted.
+    pub fn outline(&self) -> f32 {
+        self.outline
+    }
+
+    /// Sets the outline nuisance `a` ([`PoseFit::outline`]). Errors outside [−1, 1].
+    pub fn set_outline(&mut self, a: f32) -> Result<()> {
+        if !(a.is_finite() && (-1.0..=1.0).contains(&a)) {
+            return Err(Error::InvalidSettings(format!("outline {a}: need a number in [-1, 1]")));
+        }
+        self.outline = a;
+        Ok(())
+    }
+
+    /// The step size of the outline `a` (its own Adam's learning rate; 0, the default, does not
+    /// fit it). Each step then also descends `∂E_sl/∂a`, and `a` is kept in [−1, 1]. Errors on a
+    /// negative or non-finite rate.
+    pub fn set_outline_rate(&mut self, rate: f32) -> Result<()> {
+        if !(rate.is_finite() && rate >= 0.0) {
+            return Err(Error::InvalidSettings(format!("need a non-negative outline rate, got {rate}")));
+        }
+        self.outline_rate = rate;
+        if rate > 0.0 {
+            self.outline_adam.learning_rate = rate;
+        }
+        Ok(())
+    }
+
+    /// The outline step size (0: `a` is not fitted).
+    pub fn outline_rate(&self) -> f32 {
+        self.outline_rate
+    }
+
+    /// `∂E_sl/∂a` at the current pose, shape, inflation and outline, with the current blur
+    /// (what a step descends; one-sided at `a = 0`, the growing side's).
+    pub fn outline_gradient(&mut self) -> Result<f64> {
+        let vertices = self.vertices()?;
+        self.set_rendered_positions(&vertices)?;
+        let outline = Some(self.outline);
+        let (_, _, d_outline) = silhouette_pass(
+            &mut self.renderer,
+            &self.mesh,
+            &self.cameras,
+            &self.blurred_targets,
+            &self.blurs,
+            self.pixel_weight,
+            outline,
+        )?;
+        Ok(d_outline)
     }
 
     /// The current blur, as a fraction of the image height.
@@ -478,7 +596,13 @@ impl PoseFit {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
-        let (silhouette, _) = loss::squared_error_views(frame.images(), &self.targets)?;
+        let (silhouette, _) = match self.outline_setting() {
+            Some(a) => {
+                let outlined: Vec<Image> = frame.images().iter().map(|r| outline::apply(r, a).image).collect();
+                loss::squared_error_views(&outlined, &self.targets)?
+            }
+            None => loss::squared_error_views(frame.images(), &self.targets)?,
+        };
         let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
         let prior = self.prior_energy();
         Ok(silhouette * self.pixel_weight
@@ -492,39 +616,55 @@ impl PoseFit {
         self.step_with(None)
     }
 
-    /// [`PoseFit::step`], with `E_sl` and its vertex gradient at the rendered vertices already
-    /// computed when `pass` is given (the hypotheses' batch, `hypotheses.rs`).
-    fn step_with(&mut self, pass: Option<(f64, Vec<Vec3>)>) -> Result<StepReport> {
+    /// [`PoseFit::step`], with `E_sl`, its vertex gradient at the rendered vertices and
+    /// `∂E_sl/∂a` (the outline) already computed when `pass` is given (the hypotheses' batch,
+    /// `hypotheses.rs`).
+    fn step_with(&mut self, pass: Option<(f64, Vec<Vec3>, f64)>) -> Result<StepReport> {
         let pose = self.pose();
         let (vertices, cache) = self.model.skin_shaped_with_cache(&pose, self.shape())?;
         let normals = self.set_rendered_positions(&vertices)?;
         // The self-intersection check is single-threaded and independent of the images: it runs
         // beside the render + backward. It sees the skinned vertices, without inflation.
-        let (checker, lambda) = (&mut self.checker, self.lambda);
+        // Every `intersection_interval`-th step checks; the steps between reuse that check's
+        // surrogate and gradient (see `set_intersection_interval`).
+        let lambda = self.lambda;
+        let stale = match &mut self.intersection {
+            Some((_, age)) if *age < self.intersection_interval => {
+                *age += 1;
+                true
+            }
+            _ => false,
+        };
+        let check = lambda > 0.0 && !stale;
+        let outline = self.outline_setting();
+        let checker = &mut self.checker;
         let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
             || match pass {
                 Some(pass) => Ok(pass),
-                None => silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight),
+                None => silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight, outline),
             },
-            || if lambda > 0.0 { checker.check(&vertices).map(Some) } else { Ok(None) },
+            || if check { checker.check(&vertices).map(Some) } else { Ok(None) },
         );
-        let (silhouette, mut d_vertices) = silhouette_pass?;
+        let (silhouette, mut d_vertices, d_outline) = silhouette_pass?;
         // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'
         // gradient is the skinned vertices'.
         let d_inflation = match (&normals, self.inflation_rate > 0.0) {
             (Some(normals), true) => Some(inflation::gradient(&d_vertices, normals)),
             _ => None,
         };
-        let (penalty, surrogate) = match intersection? {
-            Some(result) => {
+        if let Some(result) = intersection? {
+            self.intersection = Some((result, 1));
+        }
+        let (penalty, surrogate) = match &self.intersection {
+            Some((result, _)) if lambda > 0.0 => {
                 for (g, s) in d_vertices.iter_mut().zip(&result.grad) {
                     *g += lambda * *s;
                 }
                 (result.penalty, result.surrogate)
             }
-            None => (0.0, 0.0),
+            _ => (0.0, 0.0),
         };
         let (d_pose, d_shape) = self.model.backward_with_shape(&cache, &d_vertices)?;
         let mut grads = d_pose.to_params();
@@ -561,6 +701,11 @@ impl PoseFit {
             self.inflation_adam.step(&mut d, &[g as f32])?;
             self.inflation = d[0];
         }
+        if self.outline_rate > 0.0 {
+            let mut a = [self.outline];
+            self.outline_adam.step(&mut a, &[d_outline as f32])?;
+            self.outline = a[0].clamp(-1.0, 1.0);
+        }
         // Adam's moments from before a group was frozen would still move it: put it back.
         for (r, values) in frozen.iter().zip(kept) {
             self.params[r.clone()].copy_from_slice(&values);
@@ -580,7 +725,9 @@ impl PoseFit {
 }
 
 /// Renders `mesh`, `E_sl` against the (blurred) `targets` as a mean over pixels (`pixel_weight`
-/// per pixel) and its gradient with respect to the mesh's vertices.
+/// per pixel), with the renders outlined by `outline` when it is `Some` (see
+/// [`PoseFit::outline`]), its gradient with respect to the mesh's vertices and `∂E_sl/∂a`
+/// (0 without an outline).
 fn silhouette_pass(
     renderer: &mut Renderer,
     mesh: &Mesh,
@@ -588,31 +735,42 @@ fn silhouette_pass(
     targets: &[Image],
     blurs: &[GaussianBlur],
     pixel_weight: f64,
-) -> Result<(f64, Vec<Vec3>)> {
+    outline: Option<f32>,
+) -> Result<(f64, Vec<Vec3>, f64)> {
     let frame = renderer.render(mesh, cameras)?;
-    let (silhouette, d_images) = silhouette_loss(frame.images(), targets, blurs, pixel_weight)?;
-    Ok((silhouette, renderer.backward(&frame, &d_images)?))
+    let (silhouette, d_images, d_outline) = silhouette_loss(frame.images(), targets, blurs, pixel_weight, outline)?;
+    Ok((silhouette, renderer.backward(&frame, &d_images)?, d_outline))
 }
 
-/// `E_sl` of rendered `images` against the (blurred) `targets` as a mean over pixels
-/// (`pixel_weight` per pixel) and its gradient per image.
+/// `E_sl` of rendered `images` (each grown or shrunk by the outline nuisance `a` when given)
+/// against the (blurred) `targets` as a mean over pixels (`pixel_weight` per pixel), its
+/// gradient per image, and `∂E_sl/∂a`.
 fn silhouette_loss(
     images: &[Image],
     targets: &[Image],
     blurs: &[GaussianBlur],
     pixel_weight: f64,
-) -> Result<(f64, Vec<Image>)> {
+    outline: Option<f32>,
+) -> Result<(f64, Vec<Image>, f64)> {
     let mut silhouette = 0.0;
+    let mut d_outline = 0.0;
     let mut d_images = Vec::with_capacity(targets.len());
     for ((image, target), blur) in images.iter().zip(targets).zip(blurs) {
-        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(image, target, blur)?;
+        let outlined = outline.map(|a| outline::apply(image, a));
+        let compared = outlined.as_ref().map_or(image, |o| &o.image);
+        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(compared, target, blur)?;
         silhouette += value * pixel_weight;
         for g in grad.data_mut() {
             *g = (f64::from(*g) * pixel_weight) as f32;
         }
+        if let (Some(a), Some(outlined)) = (outline, &outlined) {
+            let (d_image, d_a) = outline::backward(image, outlined, a, &grad);
+            grad = d_image;
+            d_outline += d_a;
+        }
         d_images.push(grad);
     }
-    Ok((silhouette, d_images))
+    Ok((silhouette, d_images, d_outline))
 }
 
 impl std::fmt::Debug for PoseFit {

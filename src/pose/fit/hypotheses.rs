@@ -4,7 +4,8 @@
 //! submission for the forward of every view of every hypothesis (and one for the backward)
 //! instead of one per hypothesis; on the CPU the hypotheses run side by side.
 //!
-//! Each hypothesis keeps its own optimiser state (its Adam moments) and goes through the same
+//! Each hypothesis keeps its own optimiser state (its Adam moments, nuisances and last
+//! self-intersection check) and goes through the same
 //! arithmetic as [`PoseFit::step`] (the batch returns the bits of separate calls; the
 //! self-intersection check sorts its pairs, so it does not depend on which pose it saw before),
 //! so the phase's results are those of running the hypotheses one after the other, bit for bit.
@@ -43,15 +44,17 @@ impl PoseFit {
         }
         let mut traces: Vec<Vec<(StepReport, FitState)>> = starts.iter().map(|_| Vec::new()).collect();
         for _ in 0..steps {
-            // Every hypothesis's rendered vertices, as its step computes them.
+            // Every hypothesis's rendered vertices and outline, as its step computes them.
             let mut meshes = Vec::with_capacity(states.len());
+            let mut outlines = Vec::with_capacity(states.len());
             for state in &states {
                 self.set_state(state.clone())?;
                 let (vertices, _) = self.model.skin_shaped_with_cache(&self.pose(), self.shape())?;
                 self.set_rendered_positions(&vertices)?;
                 meshes.push(self.mesh.clone());
+                outlines.push(self.outline_setting());
             }
-            let passes = self.silhouette_passes(&meshes)?;
+            let passes = self.silhouette_passes(&meshes, &outlines)?;
             for ((state, trace), pass) in states.iter_mut().zip(&mut traces).zip(passes) {
                 self.set_state(state.clone())?;
                 let report = self.step_with(Some(pass))?;
@@ -67,20 +70,21 @@ impl PoseFit {
         Ok(hypotheses)
     }
 
-    /// `E_sl` and its gradient at the rendered vertices for each of `meshes` (the rendered mesh
-    /// of each hypothesis), one batch.
-    fn silhouette_passes(&mut self, meshes: &[Mesh]) -> Result<Vec<(f64, Vec<Vec3>)>> {
+    /// `E_sl`, its gradient at the rendered vertices and `∂E_sl/∂a` for each of `meshes` (the
+    /// rendered mesh of each hypothesis, compared with its outline nuisance), one batch.
+    fn silhouette_passes(&mut self, meshes: &[Mesh], outlines: &[Option<f32>]) -> Result<Vec<(f64, Vec<Vec3>, f64)>> {
         let instances: Vec<Instance<'_>> =
             meshes.iter().map(|mesh| Instance { mesh, cameras: &self.cameras }).collect();
         let frame = self.renderer.render_batch(&instances)?;
         let mut losses = Vec::with_capacity(meshes.len());
         let mut d_images: Vec<Vec<Image>> = Vec::with_capacity(meshes.len());
-        for k in 0..meshes.len() {
-            let (loss, d) = silhouette_loss(frame.images(k), &self.blurred_targets, &self.blurs, self.pixel_weight)?;
-            losses.push(loss);
+        for (k, outline) in outlines.iter().enumerate() {
+            let (loss, d, d_outline) =
+                silhouette_loss(frame.images(k), &self.blurred_targets, &self.blurs, self.pixel_weight, *outline)?;
+            losses.push((loss, d_outline));
             d_images.push(d);
         }
         let grads = self.renderer.backward_batch(&frame, &d_images)?;
-        Ok(losses.into_iter().zip(grads).collect())
+        Ok(losses.into_iter().zip(grads).map(|((loss, d_outline), grad)| (loss, grad, d_outline)).collect())
     }
 }

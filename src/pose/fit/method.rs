@@ -18,6 +18,10 @@ pub struct FitOptions {
     pub learning_rate: f32,
     /// Self-intersection weight `λ`, ≥ 0. Default 1e-7 ([`FitSettings::lambda`]).
     pub lambda: f32,
+    /// Steps between self-intersection checks, ≥ 1 ([`PoseFit::set_intersection_interval`]; the
+    /// steps in between reuse the last check's gradient). Default
+    /// [`FitOptions::INTERSECTION_INTERVAL`].
+    pub intersection_interval: u32,
     /// Pose prior weight `μ`, ≥ 0. Default [`PoseFit::POSE_PRIOR`] (1e-3).
     pub pose_prior: f32,
     /// Leg stride of the extra starting poses, radians (0: none). Default 0.3
@@ -50,11 +54,21 @@ pub struct FitOptions {
     pub initial: Option<Pose>,
     /// Fit an inflation `d` beside the pose: the silhouettes compared are those of the vertices
     /// moved by `d` along their normals ([`PoseFit::inflation`]), so that masks uniformly too
-    /// fat or too thin do not twist the pose. The fitted pose and vertices exclude `d`.
+    /// fat or too thin do not twist the pose. The fitted pose and vertices exclude `d`. Default
+    /// false: the outline nuisance ([`FitOptions::fit_outline`]) copes with eroded masks too.
     pub fit_inflation: bool,
     /// Step size of `d` as a fraction of the model's rest height (its extent along y) per Adam
     /// step, > 0 ([`PoseFit::set_inflation_rate`]). Default [`FitOptions::INFLATION_RATE`].
     pub inflation_rate: f32,
+    /// Fit an outline nuisance `a` beside the pose ([`PoseFit::outline`]): each rendered
+    /// silhouette is grown or shrunk by up to one pixel (a grey-scale dilation or erosion blended
+    /// in by `|a|`) before it is compared, so that masks up to one pixel too fat or too thin,
+    /// thin limbs erased included, do not twist the pose. Default
+    /// [`FitOptions::FIT_OUTLINE`].
+    pub fit_outline: bool,
+    /// Step size of `a` per Adam step, > 0 ([`PoseFit::set_outline_rate`]). Default
+    /// [`FitOptions::OUTLINE_RATE`].
+    pub outline_rate: f32,
 }
 
 impl Default for FitOptions {
@@ -63,6 +77,7 @@ impl Default for FitOptions {
             steps: 300,
             learning_rate: 0.02,
             lambda: 1e-7,
+            intersection_interval: FitOptions::INTERSECTION_INTERVAL,
             pose_prior: PoseFit::POSE_PRIOR,
             leg_stride: 0.3,
             arm_swing: 0.0,
@@ -76,16 +91,27 @@ impl Default for FitOptions {
             initial: None,
             fit_inflation: FIT_INFLATION_DEFAULT,
             inflation_rate: FitOptions::INFLATION_RATE,
+            fit_outline: FitOptions::FIT_OUTLINE,
+            outline_rate: FitOptions::OUTLINE_RATE,
         }
     }
 }
 
 /// Whether `FitOptions::default()` fits the inflation.
-const FIT_INFLATION_DEFAULT: bool = true;
+const FIT_INFLATION_DEFAULT: bool = false;
 
 impl FitOptions {
     /// Default step size of the inflation, as a fraction of the model's rest height per step.
     pub const INFLATION_RATE: f32 = 1e-3;
+
+    /// Whether `FitOptions::default()` fits the outline nuisance.
+    pub const FIT_OUTLINE: bool = true;
+
+    /// Default step size of the outline nuisance `a` (which spans [−1, 1]) per Adam step.
+    pub const OUTLINE_RATE: f32 = 0.06;
+
+    /// Default steps between self-intersection checks.
+    pub const INTERSECTION_INTERVAL: u32 = 4;
 
     /// The schedule and the starting poses [`fit`] uses for `model`.
     ///
@@ -189,6 +215,7 @@ pub fn fit(
     };
     let mut fit = PoseFit::new(model, cameras, targets, renderer, settings)?;
     fit.set_pose_prior(options.pose_prior)?;
+    fit.set_intersection_interval(options.intersection_interval)?;
     fit.set_shape_prior(options.shape_prior)?;
     fit.set_free(Free { joints: options.fit_pose, global: options.fit_global, shape: options.fit_shape });
     if options.fit_inflation {
@@ -199,6 +226,12 @@ pub fn fit(
             )));
         }
         fit.set_inflation_rate(options.inflation_rate * height)?;
+    }
+    if options.fit_outline {
+        if !(options.outline_rate.is_finite() && options.outline_rate > 0.0) {
+            return Err(Error::InvalidSettings(format!("need a positive outline rate, got {}", options.outline_rate)));
+        }
+        fit.set_outline_rate(options.outline_rate)?;
     }
     let report = fit.run(&schedule, &hypotheses, on_step)?;
     Ok(Fitted { fit, report })

@@ -36,7 +36,9 @@ pub fn per_vertex_error(a: &[Vec3], b: &[Vec3]) -> f64 {
 ///
 /// The legs are the mirrored pair of sibling joints nearest the root: two children of one joint
 /// with subtrees of the same size whose rest positions are equally far from their parent (within
-/// 10%); for the built-in figure, the hips under the pelvis. Which leg the descent brings forward
+/// 10%); for the built-in figure, the hips under the pelvis. A joint that sits at its parent's
+/// position with a single child stands for that child (the MakeHuman body's `LHipJoint` and
+/// `RHipJoint` under `Hips`: the pair is `LeftUpLeg` and `RightUpLeg`). Which leg the descent brings forward
 /// is decided by faint cues when both start straight (see the [module documentation](super)); a
 /// stride each way puts a start on each side of that choice. Global orientation and translation
 /// stay zero. A skeleton without such a pair gets the rest pose alone.
@@ -155,17 +157,27 @@ fn mirrored_pairs(model: &SkinnedMesh) -> Vec<(usize, usize)> {
         }
     }
     let offset = |j: usize| model.skeleton.rest[j].translation.length();
+    // A joint at its parent's position with a single child (e.g. the hip joints of a CMU-style
+    // skeleton, between the pelvis and the thighs) stands for that child.
+    let resolve = |mut j: usize| loop {
+        let children: Vec<usize> = (0..n).filter(|&c| parents[c] == Some(j)).collect();
+        match children[..] {
+            [child] if offset(j) == 0.0 => j = child,
+            _ => return j,
+        }
+    };
     let mut pairs = Vec::new();
     let mut used = vec![false; n];
     for a in 0..n {
         for b in a + 1..n {
             let (Some(pa), Some(pb)) = (parents[a], parents[b]) else { continue };
-            let (la, lb) = (offset(a), offset(b));
+            let (ra, rb) = (resolve(a), resolve(b));
+            let (la, lb) = (offset(ra), offset(rb));
             let mirrored = pa == pb && subtree[a] == subtree[b] && la > 0.0 && (la - lb).abs() <= 0.1 * la.max(lb);
             if mirrored && !used[a] && !used[b] {
                 used[a] = true;
                 used[b] = true;
-                pairs.push((a, b));
+                pairs.push((ra, rb));
             }
         }
     }

@@ -154,3 +154,29 @@ fn limb_swings_move_the_shoulders_not_the_collars() {
     assert_eq!(limb_swing_hypotheses(&model, 0.3, 0.0).unwrap().len(), 3);
     assert_eq!(limb_swing_hypotheses(&model, 0.0, 0.0).unwrap().len(), 1);
 }
+
+#[test]
+fn a_hip_joint_at_the_pelvis_stands_for_its_thigh() {
+    // The MakeHuman body's legs hang from `LHipJoint` / `RHipJoint`, which sit at `Hips` (zero
+    // offset): the stride swings the thighs, `LeftUpLeg` and `RightUpLeg`, and nothing else.
+    let body = diffsil::pose::makehuman_body().unwrap();
+    let names = &body.skeleton.names;
+    let index = |name: &str| names.iter().position(|n| n == name).unwrap();
+    let (left_thigh, right_thigh) = (index("LeftUpLeg"), index("RightUpLeg"));
+    let (left_foot, right_foot) = (index("LeftFoot"), index("RightFoot"));
+    let hypotheses = limb_swing_hypotheses(&body, 0.3, 0.0).unwrap();
+    assert_eq!(hypotheses.len(), 3);
+    let rest = body.joint_transforms(&hypotheses[0]).unwrap();
+    for h in &hypotheses[1..] {
+        for (j, r) in h.joint_rotations.iter().enumerate() {
+            let expected = if j == left_thigh || j == right_thigh { 0.3 } else { 0.0 };
+            assert!((r.length() - expected).abs() < 1e-6, "{}: {r}", names[j]);
+        }
+        // One foot forward (+z, the way the body faces), the other back, by about as much.
+        let g = body.joint_transforms(h).unwrap();
+        let moved = |j: usize| g[j].w_axis.truncate() - rest[j].w_axis.truncate();
+        let (l, r) = (moved(left_foot), moved(right_foot));
+        assert!(l.z.abs() > 0.1 && l.z * r.z < 0.0, "feet moved by {l} and {r}");
+        assert!((l.z + r.z).abs() < 0.1 * l.z.abs(), "feet moved by {l} and {r}");
+    }
+}

@@ -15,10 +15,13 @@ fn schedule() -> Schedule {
     Schedule { hypothesis_steps: 4, stages: vec![Stage { blur: Schedule::COARSE_BLUR, steps: 1 }], convergence: None }
 }
 
-/// The fit of seed 3 at 24², fitting the inflation too (its own Adam per hypothesis).
+/// The fit of seed 3 at 24², fitting the inflation and the outline too (their own Adam per
+/// hypothesis), with a self-intersection check every 3rd step (each hypothesis its own).
 fn fit() -> (PoseFit, Vec<Pose>) {
     let (mut fit, model, _) = fit_from_rest(24, 3);
     fit.set_inflation_rate(0.01).unwrap();
+    fit.set_outline_rate(0.06).unwrap();
+    fit.set_intersection_interval(3).unwrap();
     (fit, stride_hypotheses(&model, 0.3).unwrap())
 }
 
@@ -80,6 +83,8 @@ fn batched_hypotheses_equal_hypotheses_in_turn() {
     assert_eq!(report.energy, expected.energy);
     assert_eq!(batched.pose(), reference.pose());
     assert_eq!(batched.inflation(), reference.inflation());
+    assert_eq!(batched.outline(), reference.outline());
+    assert!(batched.outline() != 0.0, "the outline must move for the test to cover it");
 
     // Cancelled in the second step of the second hypothesis: the fit is where it was then.
     let (mut cancelled, _) = fit();

@@ -4,6 +4,8 @@
 mod call;
 mod hypotheses;
 mod inflation;
+mod interval;
+mod outline;
 
 use std::ops::ControlFlow;
 
