@@ -37,7 +37,7 @@ use common::{elevation, finite, median, positive};
     after_help = "\
 Prints: the backend and adapter; the time of the first forward and backward (which include
 one-time set-up such as GPU pipelines and buffers) and the median of --repeat more; the
-triangles culled, the contour candidates (edges that may lie on the silhouette) and the
+triangles clipped and culled, the contour candidates (edges that may lie on the silhouette) and the
 (edge, pixel) segments the backward visited and found visible. The backward is that of
 L = Σ (I − T)² against the silhouette shifted right by 2% of the image width."
 )]
@@ -257,8 +257,11 @@ pub struct Run {
     pub backward_s: f64,
     /// The loss value.
     pub loss: f64,
-    /// Triangles culled (a vertex behind the near plane, beyond the far plane or too far off-screen).
+    /// Triangles culled: wholly behind the near plane or beyond the far plane, or with a vertex
+    /// too far off-screen (triangles crossing a plane are clipped, not culled).
     pub culled: u32,
+    /// Triangles clipped to the part between the near and far planes.
+    pub clipped: u32,
     /// Contour candidates: edges that may lie on the silhouette in this view.
     pub candidates: u32,
     /// (edge, pixel) segments of candidates in pixels with a non-zero `∂L/∂I`.
@@ -286,6 +289,7 @@ pub fn run_once(renderer: &mut Renderer, mesh: &Mesh, camera: &Camera, shift: u3
         backward_s,
         loss: l2.value,
         culled: stats.culled_triangles,
+        clipped: stats.clipped_triangles,
         candidates: stats.candidate_edges,
         segments: segments.segments,
         visible: segments.visible_segments,
@@ -333,8 +337,9 @@ fn render(o: &Options, mesh: &Mesh, name: &str) -> Result<(), Box<dyn std::error
         first.loss
     );
     println!(
-        "triangles culled: {}; contour candidates: {} edges; backward segments (edge, pixel): {} visited, {} visible",
-        first.culled, first.candidates, first.segments, first.visible
+        "triangles clipped: {}, culled: {}; contour candidates: {} edges; backward segments (edge, pixel): {} visited, \
+         {} visible",
+        first.clipped, first.culled, first.candidates, first.segments, first.visible
     );
     let covered = first.image.data().iter().filter(|&&v| v > 0.0).count();
     println!("wrote {} ({covered} pixels touched)", o.out.display());
