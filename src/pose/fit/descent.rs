@@ -13,6 +13,16 @@ use crate::{loss, Camera, Error, Image, Mesh, Renderer, Result};
 // A child of this module (it takes steps with a precomputed silhouette pass), in its own file.
 #[path = "hypotheses.rs"]
 mod hypotheses;
+// The inflation and outline nuisances, in their own file.
+#[path = "nuisance.rs"]
+mod nuisance;
+// The pose and shape priors, in their own file.
+#[path = "priors.rs"]
+mod priors;
+// E_sl: renders against the blurred targets, in its own file.
+#[path = "silhouette.rs"]
+mod silhouette;
+use silhouette::{silhouette_loss, silhouette_pass};
 
 /// The numbers of one fitting step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -341,37 +351,6 @@ impl PoseFit {
         Ok(())
     }
 
-    /// Weight `μ` of the pose prior: the energy gains `μ·E_prior` with
-    /// `E_prior = (1/J) Σ_j |θ_j|²`, the mean squared rotation offset (radians²) of the `J`
-    /// joints; global orientation and translation are free. 0 (none) unless set; the method's
-    /// value is [`PoseFit::POSE_PRIOR`]. Errors on a negative or non-finite weight.
-    ///
-    /// This is a zero-mean Gaussian prior on the offsets (the energy is then a negative log
-    /// posterior): silhouettes barely see a limb's twist about its own axis, which a joint and its
-    /// child can also trade between them, so without a prior those directions drift wherever
-    /// the noise of the descent takes them. The prior keeps them near the rest pose unless the
-    /// silhouettes say otherwise, and hands a rotation of the whole body from the root joint to the
-    /// global orientation, which it does not penalise.
-    pub fn set_pose_prior(&mut self, weight: f32) -> Result<()> {
-        if !(weight.is_finite() && weight >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative pose prior weight, got {weight}")));
-        }
-        self.pose_prior = weight;
-        Ok(())
-    }
-
-    /// Weight `ν` of the shape prior: the energy gains `ν·E_shape` with
-    /// `E_shape = (1/K) Σ_k β_k²` over the `K` morph targets, a zero-mean Gaussian prior on the
-    /// shape (morph targets are authored so that ±1 is an extreme body). 0 unless set; the
-    /// method's value is [`PoseFit::SHAPE_PRIOR`]. Errors on a negative or non-finite weight.
-    pub fn set_shape_prior(&mut self, weight: f32) -> Result<()> {
-        if !(weight.is_finite() && weight >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative shape prior weight, got {weight}")));
-        }
-        self.shape_prior = weight;
-        Ok(())
-    }
-
     /// Checks for self-intersection only every `interval`-th step (≥ 1; 1, the default, checks
     /// every step): the steps in between add the gradient of the last check's surrogate, held
     /// for the vertices they have moved to, and report its penalty and surrogate. The check (a
@@ -391,173 +370,6 @@ impl PoseFit {
     /// Steps between self-intersection checks ([`PoseFit::set_intersection_interval`]).
     pub fn intersection_interval(&self) -> u32 {
         self.intersection_interval
-    }
-
-    /// `E_shape` at the current shape.
-    fn shape_energy(&self) -> f64 {
-        let betas = self.shape();
-        betas.iter().map(|&b| f64::from(b) * f64::from(b)).sum::<f64>() / betas.len().max(1) as f64
-    }
-
-    /// `E_prior` at the current pose.
-    fn prior_energy(&self) -> f64 {
-        let joints = self.model.joint_count();
-        let offsets = &self.params[..3 * joints];
-        offsets.iter().map(|&t| f64::from(t) * f64::from(t)).sum::<f64>() / joints.max(1) as f64
-    }
-
-    /// Adds `μ·∂E_prior/∂θ = 2μ θ / J` to the joint offsets' entries of `grads`.
-    fn add_prior_gradient(&self, grads: &mut [f32]) {
-        if self.pose_prior > 0.0 {
-            let joints = self.model.joint_count();
-            let scale = 2.0 * self.pose_prior / joints as f32;
-            for (g, &t) in grads.iter_mut().zip(&self.params[..3 * joints]) {
-                *g += scale * t;
-            }
-        }
-    }
-
-    /// The inflation `d` (world units): `E_sl` compares the silhouettes of the skinned vertices
-    /// moved along their normals, `v_i + d·n_i` (`n_i` the unit area-weighted vertex normals of
-    /// the posed mesh, [`vertex_normals`](super::vertex_normals)). [`PoseFit::pose`] and
-    /// [`PoseFit::vertices`] never include it; the self-intersection term and the priors do not see it.
-    pub fn inflation(&self) -> f32 {
-        self.inflation
-    }
-
-    /// Sets the inflation `d` (world units; see [`PoseFit::inflation`]). Errors on a non-finite
-    /// value.
-    pub fn set_inflation(&mut self, d: f32) -> Result<()> {
-        if !d.is_finite() {
-            return Err(Error::InvalidSettings(format!("inflation {d}: need a finite number")));
-        }
-        self.inflation = d;
-        Ok(())
-    }
-
-    /// How far a step may move the inflation `d`: its own Adam's learning rate, in world units
-    /// (Adam steps are about this size). 0 (the default) does not fit `d`, which then stays
-    /// where it is (0 unless set): the fit is then exactly the one without inflation. With a
-    /// positive rate each step also descends `∂E/∂d = Σ_i ∂E_sl/∂v_i · n_i`, the normals held
-    /// constant within the step, so that a mask uniformly too fat or too thin is explained by
-    /// `d` rather than by twisting the pose. Errors on a negative or non-finite rate.
-    pub fn set_inflation_rate(&mut self, rate: f32) -> Result<()> {
-        if !(rate.is_finite() && rate >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative inflation rate, got {rate}")));
-        }
-        self.inflation_rate = rate;
-        if rate > 0.0 {
-            self.inflation_adam.learning_rate = rate;
-        }
-        Ok(())
-    }
-
-    /// The inflation step size (0: `d` is not fitted).
-    pub fn inflation_rate(&self) -> f32 {
-        self.inflation_rate
-    }
-
-    /// `∂E_sl/∂d` at the current pose, shape and inflation, with the current blur (what a step
-    /// descends).
-    pub fn inflation_gradient(&mut self) -> Result<f64> {
-        let vertices = self.vertices()?;
-        let normals = self.normals(&vertices);
-        self.mesh.set_positions(&inflation::inflate(&vertices, &normals, self.inflation))?;
-        let (_, d_vertices, _) = self.silhouette_pass()?;
-        Ok(inflation::gradient(&d_vertices, &normals))
-    }
-
-    /// The unit vertex normals of the mesh at `vertices`.
-    fn normals(&self, vertices: &[Vec3]) -> Vec<Vec3> {
-        inflation::vertex_normals(vertices, self.mesh.triangles())
-    }
-
-    /// Puts `vertices` inflated by `d` into the rendered mesh; returns the normals when they
-    /// were needed (`d` ≠ 0 or fitted).
-    fn set_rendered_positions(&mut self, vertices: &[Vec3]) -> Result<Option<Vec<Vec3>>> {
-        if self.inflation == 0.0 && self.inflation_rate == 0.0 {
-            self.mesh.set_positions(vertices)?;
-            return Ok(None);
-        }
-        let normals = self.normals(vertices);
-        self.mesh.set_positions(&inflation::inflate(vertices, &normals, self.inflation))?;
-        Ok(Some(normals))
-    }
-
-    /// Renders the rendered mesh, `E_sl` against the blurred targets (a mean over pixels) and its
-    /// gradient with respect to the rendered vertices.
-    fn silhouette_pass(&mut self) -> Result<(f64, Vec<Vec3>, f64)> {
-        let outline = self.outline_setting();
-        silhouette_pass(
-            &mut self.renderer,
-            &self.mesh,
-            &self.cameras,
-            &self.blurred_targets,
-            &self.blurs,
-            self.pixel_weight,
-            outline,
-        )
-    }
-
-    /// The outline nuisance `a` when it is applied (`a` ≠ 0 or fitted).
-    fn outline_setting(&self) -> Option<f32> {
-        (self.outline != 0.0 || self.outline_rate > 0.0).then_some(self.outline)
-    }
-
-    /// The outline nuisance `a` in [−1, 1]: `E_sl` compares each rendered silhouette grown
-    /// (`a > 0`) or shrunk (`a < 0`) by `|a|` of a one-pixel grey-scale dilation or erosion
-    /// (the 3×3 maximum or minimum of the coverage blended in by `|a|`) with its target, so
-    /// that masks up to one pixel too fat or too thin, thin limbs erased included, are
-    /// explained by `a` rather than by the pose. [`PoseFit::pose`] and [`PoseFit::vertices`]
-    /// never include it ([`PoseFit::render`] does). 0 unless set or fitted.
-    pub fn outline(&self) -> f32 {
-        self.outline
-    }
-
-    /// Sets the outline nuisance `a` ([`PoseFit::outline`]). Errors outside [−1, 1].
-    pub fn set_outline(&mut self, a: f32) -> Result<()> {
-        if !(a.is_finite() && (-1.0..=1.0).contains(&a)) {
-            return Err(Error::InvalidSettings(format!("outline {a}: need a number in [-1, 1]")));
-        }
-        self.outline = a;
-        Ok(())
-    }
-
-    /// The step size of the outline `a` (its own Adam's learning rate; 0, the default, does not
-    /// fit it). Each step then also descends `∂E_sl/∂a`, and `a` is kept in [−1, 1]. Errors on a
-    /// negative or non-finite rate.
-    pub fn set_outline_rate(&mut self, rate: f32) -> Result<()> {
-        if !(rate.is_finite() && rate >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative outline rate, got {rate}")));
-        }
-        self.outline_rate = rate;
-        if rate > 0.0 {
-            self.outline_adam.learning_rate = rate;
-        }
-        Ok(())
-    }
-
-    /// The outline step size (0: `a` is not fitted).
-    pub fn outline_rate(&self) -> f32 {
-        self.outline_rate
-    }
-
-    /// `∂E_sl/∂a` at the current pose, shape, inflation and outline, with the current blur
-    /// (what a step descends; one-sided at `a = 0`, the growing side's).
-    pub fn outline_gradient(&mut self) -> Result<f64> {
-        let vertices = self.vertices()?;
-        self.set_rendered_positions(&vertices)?;
-        let outline = Some(self.outline);
-        let (_, _, d_outline) = silhouette_pass(
-            &mut self.renderer,
-            &self.mesh,
-            &self.cameras,
-            &self.blurred_targets,
-            &self.blurs,
-            self.pixel_weight,
-            outline,
-        )?;
-        Ok(d_outline)
     }
 
     /// The current blur, as a fraction of the image height.
@@ -722,55 +534,6 @@ impl PoseFit {
                 + f64::from(self.shape_prior) * shape_prior,
         })
     }
-}
-
-/// Renders `mesh`, `E_sl` against the (blurred) `targets` as a mean over pixels (`pixel_weight`
-/// per pixel), with the renders outlined by `outline` when it is `Some` (see
-/// [`PoseFit::outline`]), its gradient with respect to the mesh's vertices and `∂E_sl/∂a`
-/// (0 without an outline).
-fn silhouette_pass(
-    renderer: &mut Renderer,
-    mesh: &Mesh,
-    cameras: &[Camera],
-    targets: &[Image],
-    blurs: &[GaussianBlur],
-    pixel_weight: f64,
-    outline: Option<f32>,
-) -> Result<(f64, Vec<Vec3>, f64)> {
-    let frame = renderer.render(mesh, cameras)?;
-    let (silhouette, d_images, d_outline) = silhouette_loss(frame.images(), targets, blurs, pixel_weight, outline)?;
-    Ok((silhouette, renderer.backward(&frame, &d_images)?, d_outline))
-}
-
-/// `E_sl` of rendered `images` (each grown or shrunk by the outline nuisance `a` when given)
-/// against the (blurred) `targets` as a mean over pixels (`pixel_weight` per pixel), its
-/// gradient per image, and `∂E_sl/∂a`.
-fn silhouette_loss(
-    images: &[Image],
-    targets: &[Image],
-    blurs: &[GaussianBlur],
-    pixel_weight: f64,
-    outline: Option<f32>,
-) -> Result<(f64, Vec<Image>, f64)> {
-    let mut silhouette = 0.0;
-    let mut d_outline = 0.0;
-    let mut d_images = Vec::with_capacity(targets.len());
-    for ((image, target), blur) in images.iter().zip(targets).zip(blurs) {
-        let outlined = outline.map(|a| outline::apply(image, a));
-        let compared = outlined.as_ref().map_or(image, |o| &o.image);
-        let loss::LossOutput { value, mut grad } = loss::blurred_squared_error(compared, target, blur)?;
-        silhouette += value * pixel_weight;
-        for g in grad.data_mut() {
-            *g = (f64::from(*g) * pixel_weight) as f32;
-        }
-        if let (Some(a), Some(outlined)) = (outline, &outlined) {
-            let (d_image, d_a) = outline::backward(image, outlined, a, &grad);
-            grad = d_image;
-            d_outline += d_a;
-        }
-        d_images.push(grad);
-    }
-    Ok((silhouette, d_images, d_outline))
 }
 
 impl std::fmt::Debug for PoseFit {
