@@ -190,44 +190,36 @@ impl Renderer {
     /// [`Renderer::render`] rejects for an instance.
     pub fn render_batch(&mut self, instances: &[Instance<'_>]) -> Result<BatchFrame> {
         let batch = Prepared::new(self, instances)?;
-        if batch.clipped {
+        let (images, stats, state) = if batch.clipped {
             let frames = instances.iter().map(|i| self.render(i.mesh, i.cameras)).collect::<Result<Vec<_>>>()?;
             let images = frames.iter().flat_map(|f| f.images().iter().cloned()).collect();
             let stats = frames.iter().flat_map(|f| f.stats().iter().copied()).collect();
-            return Ok(BatchFrame {
-                images,
-                stats,
-                topology: batch.topology,
-                params: batch.params,
-                positions: batch.positions,
-                views: batch.views,
-                ranges: batch.ranges,
-                state: BatchState::Clipped(frames),
-            });
-        }
-        let (images, stats, state) = match self.engine.forward_batch(&batch.topology, &batch.params, batch.input()) {
-            Some(rendered) => {
-                let rendered = rendered?;
-                (rendered.images, rendered.stats, BatchState::Joint(rendered.state))
-            }
-            None => {
-                let rendered = (0..instances.len())
-                    .into_par_iter()
-                    .map(|i| {
-                        CpuEngine::default().forward(
-                            &batch.topology,
-                            &batch.params[batch.ranges[i].clone()],
-                            batch.instance_input(i),
-                        )
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                let (mut images, mut stats, mut states) = (Vec::new(), Vec::new(), Vec::new());
-                for r in rendered {
-                    images.extend(r.images);
-                    stats.extend(r.stats);
-                    states.push(r.state);
+            (images, stats, BatchState::Clipped(frames))
+        } else {
+            match self.engine.forward_batch(&batch.topology, &batch.params, batch.input()) {
+                Some(rendered) => {
+                    let rendered = rendered?;
+                    (rendered.images, rendered.stats, BatchState::Joint(rendered.state))
                 }
-                (images, stats, BatchState::Separate(states))
+                None => {
+                    let rendered = (0..instances.len())
+                        .into_par_iter()
+                        .map(|i| {
+                            CpuEngine::default().forward(
+                                &batch.topology,
+                                &batch.params[batch.ranges[i].clone()],
+                                batch.instance_input(i),
+                            )
+                        })
+                        .collect::<Result<Vec<_>>>()?;
+                    let (mut images, mut stats, mut states) = (Vec::new(), Vec::new(), Vec::new());
+                    for r in rendered {
+                        images.extend(r.images);
+                        stats.extend(r.stats);
+                        states.push(r.state);
+                    }
+                    (images, stats, BatchState::Separate(states))
+                }
             }
         };
         Ok(BatchFrame {
@@ -437,20 +429,7 @@ impl Renderer {
                     &out.screen_grads,
                     "squared_error_step",
                 )?;
-                if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
-                    return Err(Error::InvalidSettings(format!(
-                        "squared_error_step_batch: the loss of view {view} of instance {i} overflowed ({}): the \
-                         targets or the inside/outside values are too large; keep them within ±1e18",
-                        out.view_losses[view]
-                    )));
-                }
-                Ok(Step {
-                    loss: out.view_losses.iter().sum(),
-                    view_losses: out.view_losses,
-                    gradient,
-                    screen_gradients: out.screen_grads,
-                    stats: out.stats,
-                })
+                Step::from_output(&format!("squared_error_step_batch, instance {i}"), out, gradient)
             })
             .collect()
     }

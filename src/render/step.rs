@@ -64,6 +64,27 @@ pub struct Step {
     pub stats: Vec<RenderStats>,
 }
 
+impl Step {
+    /// The step of an engine's output and the 3D gradient chained from it; `what` names the call
+    /// (and instance) in the error when a view's loss overflowed f32.
+    pub(super) fn from_output(what: &str, out: StepOutput, gradient: Vec<Vec3>) -> Result<Step> {
+        if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
+            return Err(Error::InvalidSettings(format!(
+                "{what}: the loss of view {view} overflowed ({}): the targets or the inside/outside values are too \
+                 large; keep them within ±1e18",
+                out.view_losses[view]
+            )));
+        }
+        Ok(Step {
+            loss: out.view_losses.iter().sum(),
+            view_losses: out.view_losses,
+            gradient,
+            screen_gradients: out.screen_grads,
+            stats: out.stats,
+        })
+    }
+}
+
 impl Renderer {
     /// Renders `mesh` from each camera, takes the squared error of each image against its target
     /// ([`crate::loss::squared_error`]) and differentiates it back to the 3D vertex positions: the whole
@@ -89,7 +110,7 @@ impl Renderer {
         }
         let (views, params) = super::views::world_views(&self.settings, cameras)?;
         let clips = super::views::clip_views(&views, mesh, &mut self.clip_topologies)?;
-        let (out, view_grads) = if clips.iter().all(Option::is_none) {
+        let (mut out, view_grads) = if clips.iter().all(Option::is_none) {
             let input = ViewInput::World { positions: mesh.positions(), cameras: &views };
             let out = self.engine.squared_error_step(mesh.topology(), &params, input, targets.id, &targets.images)?;
             let view_grads: Vec<ViewGradient<'_>> = Vec::new();
@@ -97,7 +118,7 @@ impl Renderer {
         } else {
             self.clipped_step(mesh, &views, &params, &clips, targets)?
         };
-        self.last_backward = out.backward;
+        self.last_backward = std::mem::take(&mut out.backward);
         let gradient = if view_grads.is_empty() {
             let screen: Vec<ViewGradient<'_>> = out.screen_grads.iter().map(|g| ViewGradient::Screen(g)).collect();
             super::views::chain_to_3d(mesh.positions(), &views, &screen)
@@ -105,20 +126,7 @@ impl Renderer {
             super::views::chain_to_3d(mesh.positions(), &views, &view_grads)
         };
         super::views::check_finite_gradients("squared_error_step", None, &gradient, |g: Vec3| g.is_finite())?;
-        if let Some(view) = out.view_losses.iter().position(|l| !l.is_finite()) {
-            return Err(Error::InvalidSettings(format!(
-                "squared_error_step: the loss of view {view} overflowed ({}): the targets or the inside/outside \
-                 values are too large; keep them within ±1e18",
-                out.view_losses[view]
-            )));
-        }
-        Ok(Step {
-            loss: out.view_losses.iter().sum(),
-            view_losses: out.view_losses,
-            gradient,
-            screen_gradients: out.screen_grads,
-            stats: out.stats,
-        })
+        Step::from_output("squared_error_step", out, gradient)
     }
 
     /// [`Renderer::squared_error_step`] when a view has clipped triangles: one engine call per
