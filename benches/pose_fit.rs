@@ -72,6 +72,7 @@ fn body_fit(c: &mut Criterion) {
         .expect("targets render")
         .images()
         .to_vec();
+    let parts = Parts::new(&model, &truth, &cameras, &targets);
     let mut fit = PoseFit::new(model, cameras, targets, renderer, FitSettings::default()).expect("valid fit");
     fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
     let mut group = c.benchmark_group("pose_fit/makehuman-body-7k");
@@ -79,7 +80,74 @@ fn body_fit(c: &mut Criterion) {
     group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
         b.iter(|| fit.step().expect("the step runs"))
     });
+    parts.bench(&mut group);
     group.finish();
+}
+
+/// The parts of one step of the MakeHuman body's fit, each alone, at a pose between the rest
+/// pose and the target's (so that the silhouettes disagree along their contours, as in a fit).
+struct Parts {
+    model: diffsil::pose::skin::SkinnedMesh,
+    pose: diffsil::pose::skin::Pose,
+    mesh: Mesh,
+    cameras: Vec<diffsil::Camera>,
+    targets: Vec<diffsil::Image>,
+    renderer: Renderer,
+}
+
+impl Parts {
+    fn new(
+        model: &diffsil::pose::skin::SkinnedMesh,
+        truth: &diffsil::pose::skin::Pose,
+        cameras: &[diffsil::Camera],
+        targets: &[diffsil::Image],
+    ) -> Parts {
+        let params: Vec<f32> = truth.to_params().iter().map(|t| 0.5 * t).collect();
+        let pose = diffsil::pose::skin::Pose::from_params(&params, model.joint_count()).expect("a valid pose");
+        let mesh = model.posed_mesh(&pose).expect("the body skins");
+        let renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
+        Parts { model: model.clone(), pose, mesh, cameras: cameras.to_vec(), targets: targets.to_vec(), renderer }
+    }
+
+    /// Skinning, render forward, loss (sharp and blurred), render backward with the chain to
+    /// 3D, skinning backward and the self-intersection check.
+    fn bench(mut self, group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>) {
+        use diffsil::loss::{blurred_squared_error, GaussianBlur};
+        let Parts { model, pose, mesh, cameras, targets, renderer } = &mut self;
+        group.bench_function("part: skinning", |b| b.iter(|| model.skin_shaped_with_cache(pose, &[]).expect("skins")));
+        group.bench_function(format!("part: render forward ({VIEWS} views)"), |b| {
+            b.iter(|| renderer.render(mesh, cameras).expect("renders"))
+        });
+        let frame = renderer.render(mesh, cameras).expect("renders");
+        let sharp = GaussianBlur::identity();
+        let blur = GaussianBlur::new(0.06 * RESOLUTION as f32).expect("a valid blur");
+        let blurred_targets: Vec<diffsil::Image> = targets.iter().map(|t| blur.apply(t)).collect();
+        let loss = |blur: &GaussianBlur, targets: &[diffsil::Image]| -> Vec<diffsil::Image> {
+            frame
+                .images()
+                .iter()
+                .zip(targets)
+                .map(|(image, target)| blurred_squared_error(image, target, blur).expect("loss").grad)
+                .collect()
+        };
+        group.bench_function(format!("part: loss ({VIEWS} views, sharp)"), |b| b.iter(|| loss(&sharp, targets)));
+        group.bench_function(format!("part: loss ({VIEWS} views, blur 6%)"), |b| {
+            b.iter(|| loss(&blur, &blurred_targets))
+        });
+        let d_images = loss(&sharp, targets);
+        group.bench_function(format!("part: render backward + 3D chain ({VIEWS} views)"), |b| {
+            b.iter(|| renderer.backward(&frame, &d_images).expect("backward"))
+        });
+        let d_vertices = renderer.backward(&frame, &d_images).expect("backward");
+        let (_, cache) = model.skin_shaped_with_cache(pose, &[]).expect("skins");
+        group.bench_function("part: skinning backward", |b| {
+            b.iter(|| model.backward_with_shape(&cache, &d_vertices).expect("backward"))
+        });
+        let mut checker = SelfIntersectionChecker::new(mesh.topology());
+        group.bench_function("part: self-intersection check", |b| {
+            b.iter(|| checker.check(mesh.positions()).expect("the check runs").surrogate)
+        });
+    }
 }
 
 criterion_group!(benches, pose_fit, body_fit);

@@ -141,6 +141,15 @@ impl ClipView {
         triangles: &[[u32; 3]],
         cache: &mut TopologyCache,
     ) -> Result<Option<ClipView>> {
+        // The common case, every vertex strictly between the planes: no triangle can need
+        // clipping, and one pass over the vertices (no allocation) says so.
+        let inside = |p: Vec3| {
+            let d = -camera_space(view, p).z;
+            d > view.near && d < view.far
+        };
+        if positions.iter().all(|&p| inside(p)) {
+            return Ok(None);
+        }
         let camera: Vec<Vec3> = positions.iter().map(|&p| camera_space(view, p)).collect();
         let side = |v: u32| {
             let d = -camera[v as usize].z;

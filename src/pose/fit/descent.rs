@@ -408,14 +408,20 @@ impl PoseFit {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
+        let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
+        self.energy_of(frame.images(), surrogate)
+    }
+
+    /// [`PoseFit::energy`] at the current state from its renders (`images`, not outlined) and its
+    /// self-intersection surrogate (also used by the hypotheses' batch, `hypotheses.rs`).
+    fn energy_of(&self, images: &[Image], surrogate: f64) -> Result<f64> {
         let (silhouette, _) = match self.outline_setting() {
             Some(a) => {
-                let outlined: Vec<Image> = frame.images().iter().map(|r| outline::apply(r, a).image).collect();
+                let outlined: Vec<Image> = images.iter().map(|r| outline::apply(r, a).image).collect();
                 loss::squared_error_views(&outlined, &self.targets)?
             }
-            None => loss::squared_error_views(frame.images(), &self.targets)?,
+            None => loss::squared_error_views(images, &self.targets)?,
         };
-        let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
         let prior = self.prior_energy();
         Ok(silhouette * self.pixel_weight
             + f64::from(self.lambda) * surrogate

@@ -9,6 +9,8 @@
 //! arithmetic as [`PoseFit::step`] (the batch returns the bits of separate calls; the
 //! self-intersection check sorts its pairs, so it does not depend on which pose it saw before),
 //! so the phase's results are those of running the hypotheses one after the other, bit for bit.
+//! Their final energies are rendered as one batch too, with the self-intersection checks beside
+//! the render.
 
 use glam::Vec3;
 
@@ -62,12 +64,50 @@ impl PoseFit {
                 trace.push((report, state.clone()));
             }
         }
-        let mut hypotheses = Vec::with_capacity(states.len());
-        for (state, steps) in states.into_iter().zip(traces) {
-            self.set_state(state.clone())?;
-            hypotheses.push(Hypothesis { steps, state, energy: self.energy()? });
+        let energies = self.energies(&states)?;
+        Ok(states
+            .into_iter()
+            .zip(traces)
+            .zip(energies)
+            .map(|((state, steps), energy)| Hypothesis { steps, state, energy })
+            .collect())
+    }
+
+    /// [`PoseFit::energy`] at each of `states`, their renders in one batch and their
+    /// self-intersection checks beside it (the same bits as one call per state). The fit is
+    /// left at the last state.
+    fn energies(&mut self, states: &[FitState]) -> Result<Vec<f64>> {
+        if states.is_empty() {
+            return Ok(Vec::new());
         }
-        Ok(hypotheses)
+        let mut meshes = Vec::with_capacity(states.len());
+        let mut vertices = Vec::with_capacity(states.len());
+        for state in states {
+            self.set_state(state.clone())?;
+            let v = self.vertices()?;
+            self.set_rendered_positions(&v)?;
+            meshes.push(self.mesh.clone());
+            vertices.push(v);
+        }
+        let lambda = self.lambda;
+        let (renderer, checker, cameras) = (&mut self.renderer, &mut self.checker, &self.cameras);
+        let (frame, surrogates) = rayon::join(
+            || {
+                let instances: Vec<Instance<'_>> = meshes.iter().map(|mesh| Instance { mesh, cameras }).collect();
+                renderer.render_batch(&instances)
+            },
+            || {
+                let check = |v: &Vec<Vec3>| if lambda > 0.0 { checker.check(v).map(|r| r.surrogate) } else { Ok(0.0) };
+                vertices.iter().map(check).collect::<Result<Vec<f64>>>()
+            },
+        );
+        let (frame, surrogates) = (frame?, surrogates?);
+        let mut energies = Vec::with_capacity(states.len());
+        for (k, (state, surrogate)) in states.iter().zip(surrogates).enumerate() {
+            self.set_state(state.clone())?;
+            energies.push(self.energy_of(frame.images(k), surrogate)?);
+        }
+        Ok(energies)
     }
 
     /// `E_sl`, its gradient at the rendered vertices and `∂E_sl/∂a` for each of `meshes` (the

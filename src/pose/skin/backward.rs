@@ -150,6 +150,11 @@ impl SkinnedMesh {
             |start, end| {
                 let mut acc = vec![0.0f64; count];
                 for i in start..end {
+                    // A zero gradient adds exact zeros: skip it (at 64² only the silhouette's
+                    // vertices have a gradient).
+                    if d_vertices[i] == Vec3::ZERO {
+                        continue;
+                    }
                     let (js, ws) = (&self.joints[i], &self.weights[i]);
                     let mut a = DMat3::ZERO;
                     for k in 0..4 {
@@ -179,6 +184,10 @@ impl SkinnedMesh {
             |start, end| {
                 let mut acc = vec![[0.0f64; 12]; joint_count];
                 for i in start..end {
+                    // A zero gradient adds exact zeros (`x + 0 = x`, and `+0 + ±0 = +0`): skip it.
+                    if d_vertices[i] == Vec3::ZERO {
+                        continue;
+                    }
                     let g = d_vertices[i].as_dvec3();
                     let v = bind[i].as_dvec3().extend(1.0).to_array();
                     let (js, ws) = (&self.joints[i], &self.weights[i]);

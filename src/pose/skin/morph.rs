@@ -6,6 +6,22 @@ use glam::{DMat3, DVec3, Vec3};
 use super::Skeleton;
 use crate::{Error, Result};
 
+/// The index of the first non-finite vector of `values`, if any. The skinning forward and
+/// backward validate the morph tables on every call (their fields are public), so the common
+/// case, all finite, is one branch-free pass over the bits (an exponent of all ones is an
+/// infinity or a NaN) that the compiler vectorises; only a hit looks for the index.
+fn first_non_finite(values: &[Vec3]) -> Option<usize> {
+    const EXPONENT: u32 = 0x7f80_0000;
+    let bits: &[u32] = bytemuck::cast_slice(values);
+    // `!b & EXPONENT` is 0 exactly for an infinity or a NaN: its minimum over all bits.
+    let least = bits.iter().fold(EXPONENT, |m, &b| m.min(!b & EXPONENT));
+    if least == 0 {
+        values.iter().position(|v| !v.is_finite())
+    } else {
+        None
+    }
+}
+
 /// The morph targets of a skinned mesh: a linear shape space around the bind mesh.
 ///
 /// For shape coefficients `β` (one per target) the shaped bind mesh is `v̂_i + Σ_k β_k Δ_ki` and,
@@ -57,7 +73,7 @@ impl MorphTargets {
                     got: deltas.len(),
                 });
             }
-            if let Some(i) = deltas.iter().position(|d| !d.is_finite()) {
+            if let Some(i) = first_non_finite(deltas) {
                 return Err(Error::InvalidSettings(format!(
                     "morph target {k} (`{}`): the delta of vertex {i} is {:?}; deltas must be finite",
                     self.names[k], deltas[i]

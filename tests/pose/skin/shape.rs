@@ -251,4 +251,12 @@ fn bad_shapes_and_translations_are_clear_errors() {
     let mut broken = sm.clone();
     broken.morphs.deltas[0][3].x = f32::NAN;
     assert!(broken.skin_shaped(&rest, &[0.5, 0.5]).unwrap_err().to_string().contains("vertex 3"));
+    // Infinities too, in any coordinate and target, found by the forward and the backward alike.
+    let mut broken = sm.clone();
+    broken.morphs.deltas[1][17].z = f32::NEG_INFINITY;
+    let err = broken.skin_shaped(&rest, &[0.5, 0.5]).unwrap_err().to_string();
+    assert!(err.contains("morph target 1") && err.contains("vertex 17"), "{err}");
+    let (vertices, cache) = sm.skin_shaped_with_cache(&rest, &[0.5, 0.5]).unwrap();
+    let err = broken.backward_with_shape(&cache, &vertices).unwrap_err().to_string();
+    assert!(err.contains("vertex 17"), "{err}");
 }
