@@ -13,9 +13,10 @@ use crate::{Error, Result};
 fn first_non_finite(values: &[Vec3]) -> Option<usize> {
     const EXPONENT: u32 = 0x7f80_0000;
     let bits: &[u32] = bytemuck::cast_slice(values);
-    // `!b & EXPONENT` is 0 exactly for an infinity or a NaN: its minimum over all bits.
-    let least = bits.iter().fold(EXPONENT, |m, &b| m.min(!b & EXPONENT));
-    if least == 0 {
+    // `(b & EXPONENT) + 2^23` has its top bit set exactly for an all-ones exponent (an infinity
+    // or a NaN); or-ing them needs only SSE2's integer ops.
+    let any = bits.iter().fold(0u32, |acc, &b| acc | (b & EXPONENT).wrapping_add(0x0080_0000));
+    if any & 0x8000_0000 != 0 {
         values.iter().position(|v| !v.is_finite())
     } else {
         None
