@@ -104,7 +104,7 @@ mod poses;
 mod schedule;
 
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
-pub use descent::{limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapReport};
+pub use descent::{limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate, SwapReport};
 pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
