@@ -29,21 +29,6 @@ pub enum LimbSwap {
     MirrorLegs,
     /// The legs exchanged: each takes the other's rotations, mirrored left to right.
     ExchangeLegs,
-    /// The whole body turned half round its own vertical axis (through the hips' midpoint):
-    /// front and back exchanged, which the level views' mirror pairs cannot tell apart.
-    TurnAround,
-}
-
-/// One candidate of [`PoseFit::swap_limbs`] and its energies.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SwapCandidate {
-    /// What it changes.
-    pub kind: LimbSwap,
-    /// Its energy ([`PoseFit::energy`]) as it is, before any step.
-    pub energy: f64,
-    /// Its energy after the refinement steps, for the [`PoseFit::SWAP_REFINED`] candidates with
-    /// the lowest `energy`; `None` for the others.
-    pub refined: Option<f64>,
 }
 
 /// What [`PoseFit::swap_limbs`] did.
@@ -51,63 +36,45 @@ pub struct SwapCandidate {
 pub struct SwapReport {
     /// The energy ([`PoseFit::energy`]) of the pose itself after the refinement steps.
     pub energy: f64,
-    /// Every candidate, in the order of [`limb_swaps`].
-    pub candidates: Vec<SwapCandidate>,
-    /// The candidate kept (its refined energy below `energy` and every other refined
-    /// candidate's); `None`: the pose stayed on its side.
+    /// Each candidate and its energy after the same steps.
+    pub candidates: Vec<(LimbSwap, f64)>,
+    /// The candidate kept (its energy below `energy` and every other candidate's); `None`: the
+    /// pose stayed on its side.
     pub kept: Option<LimbSwap>,
 }
 
 impl PoseFit {
-    /// How many candidates [`PoseFit::swap_limbs`] refines: those with the lowest energy as
-    /// they are. Refining every candidate would cost `steps` steps each.
-    pub const SWAP_REFINED: usize = 2;
-
-    /// The swap test on the current pose: every [`limb_swaps`] candidate's energy
-    /// ([`PoseFit::energy`]) is taken as it is; the [`PoseFit::SWAP_REFINED`] lowest and the pose
-    /// itself then take `steps` unblurred steps (in lock-step, one render batch per step, each
-    /// with the current Adam moments and nuisances), and the fit moves to the one with the lowest
-    /// energy after them: a candidate is kept only when its energy is strictly below the pose's
-    /// own after the same steps. Leaves the blur at 0. With `steps` = 0 the candidates are
-    /// compared with the pose as they are. A skeleton without a pair of legs has no candidates:
-    /// the pose then takes the steps alone.
+    /// The swap test on the current pose: the [`limb_swaps`] candidates and the pose itself each
+    /// take `steps` unblurred steps (in lock-step, one render batch per step, each with the
+    /// current Adam moments and nuisances), and the fit moves to the one with the lowest energy
+    /// ([`PoseFit::energy`]); a candidate is kept only when its energy is strictly below the
+    /// pose's own after the same steps. Leaves the blur at 0. With `steps` = 0 the candidates are
+    /// compared as they are. A skeleton without a pair of legs or arms has no candidates: the
+    /// pose then takes the steps alone.
     pub fn swap_limbs(&mut self, steps: u32) -> Result<SwapReport> {
-        self.set_blur(0.0)?;
         let base = self.state();
         let pose = self.pose();
-        let swaps = limb_swaps(&self.model, &pose)?;
-        let mut states = Vec::with_capacity(swaps.len());
-        let mut candidates = Vec::with_capacity(swaps.len());
-        for (kind, candidate) in &swaps {
+        let candidates = limb_swaps(&self.model, &pose)?;
+        let mut states = vec![base.clone()];
+        for (_, candidate) in &candidates {
             let mut state = base.clone();
             state.params[..self.pose_len].copy_from_slice(&candidate.to_params());
             // The last self-intersection check was of the other pose.
             state.intersection = None;
-            self.set_state(state.clone())?;
-            candidates.push(SwapCandidate { kind: *kind, energy: self.energy()?, refined: None });
             states.push(state);
         }
-        let mut order: Vec<usize> = (0..candidates.len()).collect();
-        order.sort_by(|&a, &b| candidates[a].energy.total_cmp(&candidates[b].energy));
-        let chosen: Vec<usize> = if steps == 0 { order } else { order.into_iter().take(Self::SWAP_REFINED).collect() };
-        let mut starts = vec![base.clone()];
-        starts.extend(chosen.iter().map(|&k| states[k].clone()));
         let refined: Vec<Hypothesis> = if steps == 0 {
-            self.set_state(base.clone())?;
-            let energy = self.energy()?;
-            let mut out = vec![Hypothesis { steps: Vec::new(), energy, state: base }];
-            out.extend(chosen.iter().map(|&k| Hypothesis {
-                steps: Vec::new(),
-                energy: candidates[k].energy,
-                state: states[k].clone(),
-            }));
+            self.set_blur(0.0)?;
+            let mut out = Vec::with_capacity(states.len());
+            for state in states {
+                self.set_state(state.clone())?;
+                out.push(Hypothesis { steps: Vec::new(), energy: self.energy()?, state });
+            }
             out
         } else {
-            self.run_states(starts, 0.0, steps)?
+            self.run_states(states, 0.0, steps)?
         };
-        for (&k, h) in chosen.iter().zip(&refined[1..]) {
-            candidates[k].refined = Some(h.energy);
-        }
+        let energy = refined[0].energy;
         let mut best = 0;
         for (k, h) in refined.iter().enumerate().skip(1) {
             if h.energy < refined[best].energy {
@@ -115,24 +82,22 @@ impl PoseFit {
             }
         }
         let report = SwapReport {
-            energy: refined[0].energy,
-            kept: (best > 0).then(|| candidates[chosen[best - 1]].kind),
-            candidates,
+            energy,
+            candidates: candidates.iter().zip(&refined[1..]).map(|((kind, _), h)| (*kind, h.energy)).collect(),
+            kept: (best > 0).then(|| candidates[best - 1].0),
         };
-        let state = refined.into_iter().nth(best).expect("the pose itself is always there").state;
-        self.set_state(state)?;
+        let chosen = refined.into_iter().nth(best).expect("the pose itself is always there").state;
+        self.set_state(chosen)?;
         Ok(report)
     }
 }
 
 /// The candidates of the swap test at `pose`: each leg and each arm mirrored front to back (the
-/// arms from the shoulder, past a collar bone), both legs mirrored, the legs exchanged, and the
-/// body turned around (the global orientation and translation only). The
+/// arms from the shoulder, past a collar bone), both legs mirrored, and the legs exchanged. The
 /// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](super::limb_swing_hypotheses);
 /// the coronal plane is spanned by the line through the hips and the line from the hips' to the
 /// shoulders' midpoint (the pose's vertical axis when there are no arms). Only the limbs' joint
-/// rotations change, but for the turn. A skeleton without legs gets none; without arms, no arm
-/// mirrors.
+/// rotations change. A skeleton without legs gets none; without arms, only the legs'.
 pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pose)>> {
     pose.validate(model.joint_count())?;
     let pairs = mirrored_pairs(model);
@@ -187,10 +152,6 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
         }
         swaps.push((LimbSwap::ExchangeLegs, (t, changed)));
     }
-    let mut turned = pose.clone();
-    let half_turn = Quat::from_axis_angle(up.normalize(), std::f32::consts::PI);
-    turned.orientation = (half_turn * Quat::from_scaled_axis(pose.orientation)).normalize().to_scaled_axis();
-    turned.translation = hips - half_turn * (hips - pose.translation);
     Ok(swaps
         .into_iter()
         .map(|(kind, (t, changed))| {
@@ -203,7 +164,6 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             }
             (kind, out)
         })
-        .chain([(LimbSwap::TurnAround, turned)])
         .collect())
 }
 

@@ -76,7 +76,8 @@ fn a_mirrored_limb_is_the_limb_reflected_in_the_coronal_plane_and_twice_is_the_p
     let forward = lateral.cross(mid(left_arm, right_arm) - mid(left_leg, right_leg)).normalize();
     let mirrored = candidate(&model, &pose, LimbSwap::Mirror(left_leg));
     let after = model.joint_transforms(&mirrored).unwrap();
-    let children: Vec<usize> = (0..model.joint_count()).filter(|&c| model.skeleton.parents[c] == Some(left_leg)).collect();
+    let children: Vec<usize> =
+        (0..model.joint_count()).filter(|&c| model.skeleton.parents[c] == Some(left_leg)).collect();
     let knee = children[0];
     let before_offset = at(&world, knee) - at(&world, left_leg);
     let after_offset = at(&after, knee) - at(&after, left_leg);
@@ -133,7 +134,7 @@ fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
     let wrong = candidate(&model, &truth, LimbSwap::Mirror(arm));
     let truth_vertices = model.skin(&truth).unwrap();
     let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
-    // Compared as they are, and after 4 refinement steps of the pose and the 2 best candidates.
+    // Compared as they are, and after 4 refinement steps of the pose and every candidate.
     for steps in [0, 4] {
         let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
         // A fresh Adam's first steps move every parameter by the learning rate (a fit's own
@@ -143,12 +144,9 @@ fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
         assert_eq!(report.kept, Some(LimbSwap::Mirror(arm)), "{report:?}");
         let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
         assert!(error < 0.2 * start_error, "{steps} steps: {start_error} m → {error} m");
-        let kept = report.candidates.iter().find(|c| c.kind == LimbSwap::Mirror(arm)).unwrap();
-        let refined = kept.refined.expect("the best candidate is refined");
-        assert!(refined < report.energy, "{report:?}");
-        assert!((fit.energy().unwrap() - refined).abs() <= 1e-9 * refined.max(1e-12), "{report:?}");
-        let others = report.candidates.iter().filter(|c| c.refined.is_some()).count();
-        assert_eq!(others, if steps == 0 { 7 } else { PoseFit::SWAP_REFINED }, "{report:?}");
+        let kept = report.candidates.iter().find(|(k, _)| *k == LimbSwap::Mirror(arm)).unwrap().1;
+        assert!(kept < report.energy, "{report:?}");
+        assert!((fit.energy().unwrap() - kept).abs() <= 1e-9 * kept.max(1e-12), "{report:?}");
     }
 }
 
@@ -161,34 +159,13 @@ fn a_swap_that_raises_the_energy_is_not_kept() {
         fit.set_learning_rate(0.002).unwrap();
         let report = fit.swap_limbs(steps).unwrap();
         assert_eq!(report.kept, None, "{report:?}");
-        assert_eq!(report.candidates.len(), 7);
-        assert!(report.candidates.iter().all(|c| c.refined.is_none_or(|e| e > report.energy)), "{report:?}");
+        assert_eq!(report.candidates.len(), 6);
+        assert!(report.candidates.iter().all(|(_, e)| *e > report.energy), "{report:?}");
         if steps == 0 {
             let error = per_vertex_error(&fit.vertices().unwrap(), &model.skin(&truth).unwrap());
             assert!(error < 1e-6, "stayed at the truth: {error} m");
         }
     }
-}
-
-#[test]
-fn a_body_turned_around_is_turned_back() {
-    let (model, truth) = striding();
-    let (cameras, targets) = views(&model, &truth, 48);
-    let turned = candidate(&model, &truth, LimbSwap::TurnAround);
-    let truth_vertices = model.skin(&truth).unwrap();
-    // Turned about the body's own axis: the hips stay where they were, the body faces back.
-    let hips = |pose: &Pose| {
-        let world = model.joint_transforms(pose).unwrap();
-        let [l, r, ..] = limbs(&model, &truth)[..] else { panic!("no legs") };
-        0.5 * (world[l].w_axis.truncate() + world[r].w_axis.truncate())
-    };
-    assert!((hips(&turned) - hips(&truth)).length() < 1e-5);
-    let start_error = per_vertex_error(&model.skin(&turned).unwrap(), &truth_vertices);
-    assert!(start_error > 0.05, "{start_error} m");
-    let mut fit = fit_from(&model, &turned, cameras, targets);
-    let report = fit.swap_limbs(0).unwrap();
-    assert_eq!(report.kept, Some(LimbSwap::TurnAround), "{report:?}");
-    assert!(per_vertex_error(&fit.vertices().unwrap(), &truth_vertices) < 1e-4);
 }
 
 #[test]
@@ -202,8 +179,9 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     })
     .unwrap();
     let swap = with.swap.expect("the swap test ran");
-    assert_eq!(swap.candidates.len(), 7);
+    assert_eq!(swap.candidates.len(), 6);
     let options = FitOptions { swap_steps: 0, ..options };
-    let without = fit(model, cameras, targets, renderer(), &options, |_, _| std::ops::ControlFlow::Continue(())).unwrap();
+    let without =
+        fit(model, cameras, targets, renderer(), &options, |_, _| std::ops::ControlFlow::Continue(())).unwrap();
     assert!(without.swap.is_none());
 }
