@@ -94,7 +94,7 @@ impl PoseFit {
 
 /// The candidates of the swap test at `pose`: each leg and each arm mirrored front to back (the
 /// arms from the shoulder, past a collar bone), both legs mirrored, and the legs exchanged. The
-/// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](super::limb_swing_hypotheses);
+/// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses);
 /// the coronal plane is spanned by the line through the hips and the line from the hips' to the
 /// shoulders' midpoint (the pose's vertical axis when there are no arms). Only the limbs' joint
 /// rotations change. A skeleton without legs gets none; without arms, only the legs'.
