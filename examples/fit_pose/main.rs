@@ -68,7 +68,9 @@ silhouettes, both blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a 
 the joint offsets. Each of the three starting poses (rest, legs striding each way) runs 1/10 of
 the steps with a blur of 6% of the image height; the one with the lowest unblurred energy E
 continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of 300) unblurred, ending early
-after 30 steps without a 1% lower energy. Same method and settings at every resolution and F."
+after 30 steps without a 1% lower energy. Then the swap test: each leg and arm mirrored front to
+back, both legs mirrored and the legs exchanged, each refined 10 steps beside the pose and kept
+where the energy ends lower (--swap-steps). Same method and settings at every resolution and F."
 )]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in figure]
