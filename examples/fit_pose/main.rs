@@ -36,7 +36,8 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, PoseFit, Stop, RAISED_ELEVATION_DEG,
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Stop,
+    RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Mesh, RenderSettings, Renderer};
@@ -67,7 +68,9 @@ silhouettes, both blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a 
 the joint offsets. Each of the three starting poses (rest, legs striding each way) runs 1/10 of
 the steps with a blur of 6% of the image height; the one with the lowest unblurred energy E
 continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of 300) unblurred, ending early
-after 30 steps without a 1% lower energy. Same method and settings at every resolution and F."
+after 30 steps without a 1% lower energy. Then the swap test: each leg and arm mirrored front to
+back, both legs mirrored and the legs exchanged, each refined 10 steps beside the pose and kept
+where the energy ends lower (--swap-steps). Same method and settings at every resolution and F."
 )]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in figure]
@@ -108,6 +111,10 @@ pub struct Options {
     /// Leg stride (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0.3", value_parser = finite)]
     stride: f32,
+    /// Steps of the limb swap test after the descent (limbs mirrored front to back, legs
+    /// exchanged, kept where the energy ends lower); 0: none [default: FitOptions::SWAP_STEPS]
+    #[arg(long, value_name = "K")]
+    swap_steps: Option<u32>,
     /// Arm swing (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0", value_parser = finite)]
     arm_swing: f32,
@@ -233,6 +240,7 @@ fn fit_options(o: &Options) -> FitOptions {
             coarse_blur: 0.0,
             convergence: None,
             fit_global: !o.no_global,
+            swap_steps: 0,
             ..defaults
         };
     }
@@ -251,6 +259,7 @@ fn fit_options(o: &Options) -> FitOptions {
         inflation_rate: o.inflation_rate,
         fit_outline: o.outline.unwrap_or(defaults.fit_outline),
         outline_rate: o.outline_rate,
+        swap_steps: o.swap_steps.unwrap_or(defaults.swap_steps),
         ..defaults
     }
 }
@@ -264,6 +273,8 @@ struct Outcome {
     backend: String,
     steps: u32,
     stop: Stop,
+    /// The swap the swap test kept, if any.
+    swap: Option<LimbSwap>,
 }
 
 /// Fits one seed; writes pictures when `pictures` is set.
@@ -327,6 +338,10 @@ fn fit_seed(
     let seconds = start.elapsed().as_secs_f64();
     bar.finish();
     let (mut fit, run) = (fitted.fit, fitted.report);
+    let swap = fitted.swap.as_ref().and_then(|s| s.kept);
+    if let (false, Some(report)) = (quiet, &fitted.swap) {
+        println!("swap test: pose {:.3e}, kept {:?}", report.energy, report.kept);
+    }
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
@@ -360,7 +375,7 @@ fn fit_seed(
         }
     }
     let backend = fit.renderer().backend_name();
-    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop })
+    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop, swap })
 }
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
@@ -485,11 +500,12 @@ fn evaluate(
     for (label, case) in cases {
         let outcome = fit_seed(model, &case, false, true)?;
         println!(
-            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s",
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}",
             outcome.error_m * 1000.0,
             outcome.steps,
             outcome.stop,
-            outcome.seconds
+            outcome.seconds,
+            outcome.swap.map_or(String::new(), |s| format!(", swapped {s:?}"))
         );
         errors.push(outcome.error_m * 1000.0);
         seconds += outcome.seconds;

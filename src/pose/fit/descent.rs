@@ -23,6 +23,10 @@ mod priors;
 #[path = "silhouette.rs"]
 mod silhouette;
 use silhouette::{silhouette_loss, silhouette_pass};
+// The limb swap test on a final pose, in its own file.
+#[path = "swap.rs"]
+mod swap;
+pub use swap::{limb_swaps, LimbSwap, SwapReport};
 
 /// The numbers of one fitting step.
 #[derive(Clone, Copy, Debug, PartialEq)]

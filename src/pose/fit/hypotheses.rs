@@ -38,13 +38,24 @@ impl PoseFit {
         blur: f32,
         steps: u32,
     ) -> Result<Vec<Hypothesis>> {
-        self.set_blur(blur)?;
         let mut states = Vec::with_capacity(starts.len());
         for start in starts {
             self.restart(start)?;
             states.push(self.state());
         }
-        let mut traces: Vec<Vec<(StepReport, FitState)>> = starts.iter().map(|_| Vec::new()).collect();
+        self.run_states(states, blur, steps)
+    }
+
+    /// [`PoseFit::run_hypotheses`] from given states (their Adam moments and nuisances kept)
+    /// instead of fresh starts: the limb swap test (`swap.rs`) refines its candidates with it.
+    pub(in crate::pose::fit) fn run_states(
+        &mut self,
+        mut states: Vec<FitState>,
+        blur: f32,
+        steps: u32,
+    ) -> Result<Vec<Hypothesis>> {
+        self.set_blur(blur)?;
+        let mut traces: Vec<Vec<(StepReport, FitState)>> = states.iter().map(|_| Vec::new()).collect();
         for _ in 0..steps {
             // Every hypothesis's rendered vertices and outline, as its step computes them.
             let mut meshes = Vec::with_capacity(states.len());

@@ -3,7 +3,7 @@
 use std::ops::ControlFlow;
 
 use super::{limb_swing_hypotheses, Convergence, Free, PoseFit, Progress, RunReport, Schedule};
-use super::{FitSettings, Stage};
+use super::{FitSettings, Stage, Stop, SwapReport};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Renderer, Result};
 
@@ -69,6 +69,11 @@ pub struct FitOptions {
     /// Step size of `a` per Adam step, > 0 ([`PoseFit::set_outline_rate`]). Default
     /// [`FitOptions::OUTLINE_RATE`].
     pub outline_rate: f32,
+    /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
+    /// mirrored front to back, the legs exchanged, each candidate and the pose refined this many
+    /// steps, a candidate kept only where the energy ends lower); 0: no swap test. Only with
+    /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
+    pub swap_steps: u32,
 }
 
 impl Default for FitOptions {
@@ -93,6 +98,7 @@ impl Default for FitOptions {
             inflation_rate: FitOptions::INFLATION_RATE,
             fit_outline: FitOptions::FIT_OUTLINE,
             outline_rate: FitOptions::OUTLINE_RATE,
+            swap_steps: FitOptions::SWAP_STEPS,
         }
     }
 }
@@ -109,6 +115,9 @@ impl FitOptions {
 
     /// Default step size of the outline nuisance `a` (which spans [−1, 1]) per Adam step.
     pub const OUTLINE_RATE: f32 = 0.06;
+
+    /// Default steps of the limb swap test ([`FitOptions::swap_steps`]).
+    pub const SWAP_STEPS: u32 = 10;
 
     /// Default steps between self-intersection checks.
     pub const INTERSECTION_INTERVAL: u32 = 4;
@@ -162,8 +171,12 @@ impl FitOptions {
 pub struct Fitted {
     /// The fit at its final pose; [`PoseFit::pose`] is the result.
     pub fit: PoseFit,
-    /// Steps, hypotheses' energies, the final energy and why it stopped.
+    /// Steps, hypotheses' energies, the final energy and why it stopped (of the descent, before
+    /// the swap test).
     pub report: RunReport,
+    /// The limb swap test after the descent ([`FitOptions::swap_steps`]); `None` when it did not
+    /// run.
+    pub swap: Option<SwapReport>,
 }
 
 /// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
@@ -234,5 +247,10 @@ pub fn fit(
         fit.set_outline_rate(options.outline_rate)?;
     }
     let report = fit.run(&schedule, &hypotheses, on_step)?;
-    Ok(Fitted { fit, report })
+    let swap = if options.swap_steps > 0 && options.fit_pose && report.stop != Stop::Cancelled {
+        Some(fit.swap_limbs(options.swap_steps)?)
+    } else {
+        None
+    };
+    Ok(Fitted { fit, report, swap })
 }

@@ -88,6 +88,15 @@
 //!    gradient ([`PoseFit::set_intersection_interval`]). That body's seeds 1–10 end where they
 //!    did (median 4.0 mm, the same 2 failures), at 0.76 times the CPU time per fit.
 //!
+//! 9. **Swap test** ([`PoseFit::swap_limbs`], [`FitOptions::swap_steps`], after the descent):
+//!    the mistakes descent cannot undo are tried as discrete candidates on the final pose
+//!    ([`limb_swaps`]): each leg and each arm mirrored front to back in the body's coronal plane
+//!    (its joints' rotations reflected, `T → M T M`), both legs mirrored, and the legs
+//!    exchanged. The six candidates and the pose itself take 10 unblurred steps in one batch per
+//!    step, and a candidate replaces the pose only where its energy then ends lower. Refining
+//!    only the two candidates lowest as they are cost about as much (their energies have to be
+//!    taken first) and lost swaps that the full test found (see the README).
+//!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
 //! as 300 plain steps. With them, seeds 1–30 at 64², F = 4 end at a median of 4.6 mm, one of
@@ -104,7 +113,7 @@ mod poses;
 mod schedule;
 
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
-pub use descent::{FitSettings, FitState, Free, PoseFit, StepReport};
+pub use descent::{limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapReport};
 pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};

@@ -108,7 +108,7 @@ pub fn limb_swing_hypotheses(model: &SkinnedMesh, leg_angle: f32, arm_angle: f32
 }
 
 /// `j`, or its only child when `j` is a collar bone (see [`limb_swing_hypotheses`]).
-fn shoulder(model: &SkinnedMesh, j: usize) -> usize {
+pub(in crate::pose::fit) fn shoulder(model: &SkinnedMesh, j: usize) -> usize {
     let parents = &model.skeleton.parents;
     let children: Vec<usize> = (0..parents.len()).filter(|&c| parents[c] == Some(j)).collect();
     let [child] = children[..] else { return j };
@@ -141,7 +141,7 @@ fn offset_frame(model: &SkinnedMesh, world: &[glam::Mat4], j: usize) -> Mat3 {
 
 /// The mirrored pairs of sibling joints (see [`stride_hypotheses`]), nearest the root first
 /// (ties in joint order); a joint belongs to at most one pair.
-fn mirrored_pairs(model: &SkinnedMesh) -> Vec<(usize, usize)> {
+pub(in crate::pose::fit) fn mirrored_pairs(model: &SkinnedMesh) -> Vec<(usize, usize)> {
     let parents = &model.skeleton.parents;
     let n = parents.len();
     let mut subtree = vec![1usize; n];

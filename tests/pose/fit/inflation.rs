@@ -101,7 +101,9 @@ fn a_fit_to_dilated_masks_inflates_and_to_eroded_ones_deflates() {
     let cameras = framing_cameras(&model.mesh, 4, 24);
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
     let clean = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
-    let options = FitOptions { steps: 80, fit_inflation: true, ..FitOptions::default() };
+    // The descent alone: at 24² after 80 steps the swap test may keep a limb swap whose
+    // refinement trades some of the offset for the pose (d for dilated masks then ends near 0).
+    let options = FitOptions { steps: 80, fit_inflation: true, swap_steps: 0, ..FitOptions::default() };
     let mut ds = Vec::new();
     for grow in [true, false] {
         let targets: Vec<Image> = clean.iter().map(|t| morph(t, grow)).collect();

@@ -6,6 +6,7 @@ mod hypotheses;
 mod inflation;
 mod interval;
 mod outline;
+mod swap;
 
 use std::ops::ControlFlow;
 

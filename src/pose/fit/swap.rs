@@ -1,0 +1,237 @@
+//! The limb swap test on a final pose ([`PoseFit::swap_limbs`]): the discrete mistakes descent
+//! cannot undo (a limb on the wrong side of the body's coronal plane, the legs holding each
+//! other's places) are tried as candidates, refined a few steps beside the pose itself, and kept
+//! only where the energy ends lower.
+//!
+//! A candidate changes a limb's rotations, not its vertices: each joint `k` of the limb has a
+//! world rotation `Q_k` at the pose and `Q⁰_k` at rest, so the limb part moved by
+//! `T_k = Q_k Q⁰_kᵀ`. Mirroring the limb in a plane with unit normal `n` (reflection
+//! `M = I − 2nnᵀ`) replaces every `T_k` of the limb by `M T_k M` (a proper rotation); exchanging
+//! two limbs gives each one the other's `T`, mirrored in the sagittal plane. The new joint offsets
+//! follow from `R(θ'_k) = Q⁰_kᵀ T'_pᵀ T'_k Q⁰_k` (`p` the parent), which gives back `θ_k` where
+//! nothing changed.
+
+use glam::{Mat3, Mat4, Quat, Vec3};
+
+use super::hypotheses::Hypothesis;
+use super::PoseFit;
+use crate::pose::fit::poses::{mirrored_pairs, shoulder};
+use crate::pose::skin::{Pose, SkinnedMesh};
+use crate::Result;
+
+/// One discrete change [`PoseFit::swap_limbs`] tries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimbSwap {
+    /// The limb starting at this joint (a thigh or an upper arm) mirrored front to back, in the
+    /// body's coronal plane through the joint.
+    Mirror(usize),
+    /// Both legs mirrored front to back.
+    MirrorLegs,
+    /// The legs exchanged: each takes the other's rotations, mirrored left to right.
+    ExchangeLegs,
+}
+
+/// What [`PoseFit::swap_limbs`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SwapReport {
+    /// The energy ([`PoseFit::energy`]) of the pose itself after the refinement steps.
+    pub energy: f64,
+    /// Each candidate and its energy after the same steps.
+    pub candidates: Vec<(LimbSwap, f64)>,
+    /// The candidate kept (its energy below `energy` and every other candidate's); `None`: the
+    /// pose stayed on its side.
+    pub kept: Option<LimbSwap>,
+}
+
+impl PoseFit {
+    /// The swap test on the current pose: the [`limb_swaps`] candidates and the pose itself each
+    /// take `steps` unblurred steps (in lock-step, one render batch per step, each with the
+    /// current Adam moments and nuisances), and the fit moves to the one with the lowest energy
+    /// ([`PoseFit::energy`]); a candidate is kept only when its energy is strictly below the
+    /// pose's own after the same steps. Leaves the blur at 0. With `steps` = 0 the candidates are
+    /// compared as they are. A skeleton without a pair of legs or arms has no candidates: the
+    /// pose then takes the steps alone.
+    pub fn swap_limbs(&mut self, steps: u32) -> Result<SwapReport> {
+        let base = self.state();
+        let pose = self.pose();
+        let candidates = limb_swaps(&self.model, &pose)?;
+        let mut states = vec![base.clone()];
+        for (_, candidate) in &candidates {
+            let mut state = base.clone();
+            state.params[..self.pose_len].copy_from_slice(&candidate.to_params());
+            // The last self-intersection check was of the other pose.
+            state.intersection = None;
+            states.push(state);
+        }
+        let refined: Vec<Hypothesis> = if steps == 0 {
+            self.set_blur(0.0)?;
+            let mut out = Vec::with_capacity(states.len());
+            for state in states {
+                self.set_state(state.clone())?;
+                out.push(Hypothesis { steps: Vec::new(), energy: self.energy()?, state });
+            }
+            out
+        } else {
+            self.run_states(states, 0.0, steps)?
+        };
+        let energy = refined[0].energy;
+        let mut best = 0;
+        for (k, h) in refined.iter().enumerate().skip(1) {
+            if h.energy < refined[best].energy {
+                best = k;
+            }
+        }
+        let report = SwapReport {
+            energy,
+            candidates: candidates.iter().zip(&refined[1..]).map(|((kind, _), h)| (*kind, h.energy)).collect(),
+            kept: (best > 0).then(|| candidates[best - 1].0),
+        };
+        let chosen = refined.into_iter().nth(best).expect("the pose itself is always there").state;
+        self.set_state(chosen)?;
+        Ok(report)
+    }
+}
+
+/// The candidates of the swap test at `pose`: each leg and each arm mirrored front to back (the
+/// arms from the shoulder, past a collar bone), both legs mirrored, and the legs exchanged. The
+/// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses);
+/// the coronal plane is spanned by the line through the hips and the line from the hips' to the
+/// shoulders' midpoint (the pose's vertical axis when there are no arms). Only the limbs' joint
+/// rotations change. A skeleton without legs gets none; without arms, only the legs'.
+pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pose)>> {
+    pose.validate(model.joint_count())?;
+    let pairs = mirrored_pairs(model);
+    let Some(&(left_leg, right_leg)) = pairs.first() else { return Ok(Vec::new()) };
+    let arms = pairs.get(1).map(|&(a, b)| (shoulder(model, a), shoulder(model, b)));
+    let rest = model.joint_transforms(&Pose::rest(model.joint_count()))?;
+    let posed = model.joint_transforms(pose)?;
+    let rest_rot: Vec<Mat3> = rest.iter().map(rotation).collect();
+    let moved: Vec<Mat3> = posed.iter().zip(&rest_rot).map(|(g, q0)| rotation(g) * q0.transpose()).collect();
+    let at = |j: usize| posed[j].w_axis.truncate();
+    let lateral = at(left_leg) - at(right_leg);
+    let hips = 0.5 * (at(left_leg) + at(right_leg));
+    let up = match arms {
+        Some((a, b)) => 0.5 * (at(a) + at(b)) - hips,
+        None => Quat::from_scaled_axis(pose.orientation) * Vec3::Y,
+    };
+    let forward = lateral.cross(up).normalize_or_zero();
+    let sideways = up.cross(forward).normalize_or_zero();
+    if forward == Vec3::ZERO || sideways == Vec3::ZERO {
+        return Ok(Vec::new());
+    }
+    let coronal = reflection(forward);
+    let sagittal = reflection(sideways);
+    let parents = &model.skeleton.parents;
+    let n = parents.len();
+    let mirror = |limbs: &[usize]| {
+        let (mut t, mut changed) = (moved.clone(), vec![false; n]);
+        for &limb in limbs {
+            for k in subtree(parents, limb) {
+                t[k] = coronal * moved[k] * coronal;
+                changed[k] = true;
+            }
+        }
+        (t, changed)
+    };
+    let mut swaps = Vec::new();
+    let mut limbs = vec![left_leg, right_leg];
+    if let Some((a, b)) = arms {
+        limbs.extend([a, b]);
+    }
+    for &limb in &limbs {
+        swaps.push((LimbSwap::Mirror(limb), mirror(&[limb])));
+    }
+    swaps.push((LimbSwap::MirrorLegs, mirror(&[left_leg, right_leg])));
+    if let Some(pairs) = matched_subtrees(parents, left_leg, right_leg) {
+        let (mut t, mut changed) = (moved.clone(), vec![false; n]);
+        for (a, b) in pairs {
+            t[a] = sagittal * moved[b] * sagittal;
+            t[b] = sagittal * moved[a] * sagittal;
+            changed[a] = true;
+            changed[b] = true;
+        }
+        swaps.push((LimbSwap::ExchangeLegs, (t, changed)));
+    }
+    Ok(swaps
+        .into_iter()
+        .map(|(kind, (t, changed))| {
+            // Limbs change whole subtrees, whose roots' parents keep their rotations.
+            let mut out = pose.clone();
+            for k in (0..n).filter(|&k| changed[k]) {
+                let parent = parents[k].map_or(Mat3::IDENTITY, |p| t[p]);
+                let local = rest_rot[k].transpose() * parent.transpose() * t[k] * rest_rot[k];
+                out.joint_rotations[k] = axis_angle(local);
+            }
+            (kind, out)
+        })
+        .collect())
+}
+
+/// The rotation of a joint's world transform (its columns normalised: a uniform scale divided out).
+fn rotation(g: &Mat4) -> Mat3 {
+    let m = Mat3::from_mat4(*g);
+    Mat3::from_cols(m.x_axis.normalize_or_zero(), m.y_axis.normalize_or_zero(), m.z_axis.normalize_or_zero())
+}
+
+/// `I − 2nnᵀ` for a unit `n`.
+fn reflection(n: Vec3) -> Mat3 {
+    Mat3::IDENTITY - 2.0 * Mat3::from_cols(n * n.x, n * n.y, n * n.z)
+}
+
+/// The rotation vector (axis × angle, angle in [0, π]) of a rotation matrix.
+fn axis_angle(m: Mat3) -> Vec3 {
+    let q = Quat::from_mat3(&m).normalize();
+    let q = if q.w < 0.0 { -q } else { q };
+    let (axis, angle) = q.to_axis_angle();
+    axis * angle
+}
+
+/// `root` and every joint below it, in joint order.
+fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
+    let mut inside = vec![false; parents.len()];
+    inside[root] = true;
+    let mut out = vec![root];
+    for j in root + 1..parents.len() {
+        if let Some(p) = parents[j] {
+            if inside[p] {
+                inside[j] = true;
+                out.push(j);
+            }
+        }
+    }
+    // Joints listed before their parent (unusual orders) are found by repeating the sweep.
+    loop {
+        let mut grew = false;
+        for j in 0..parents.len() {
+            if let Some(p) = parents[j] {
+                if inside[p] && !inside[j] {
+                    inside[j] = true;
+                    out.push(j);
+                    grew = true;
+                }
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// The joints of the subtrees under `a` and `b` paired in joint order, when the two have the same
+/// shape (each pair's parents paired too); `None` otherwise.
+fn matched_subtrees(parents: &[Option<usize>], a: usize, b: usize) -> Option<Vec<(usize, usize)>> {
+    let (sa, sb) = (subtree(parents, a), subtree(parents, b));
+    if sa.len() != sb.len() {
+        return None;
+    }
+    let pairs: Vec<(usize, usize)> = sa.into_iter().zip(sb).collect();
+    for &(x, y) in &pairs[1..] {
+        let (px, py) = (parents[x]?, parents[y]?);
+        if !pairs.contains(&(px, py)) {
+            return None;
+        }
+    }
+    Some(pairs)
+}

@@ -1,0 +1,187 @@
+//! The limb swap test (`PoseFit::swap_limbs`, `limb_swaps`): a mirrored limb is the reflection
+//! of the limb in the body's coronal plane and mirroring twice gives the pose back; a fit whose
+//! arm or leg sits on the wrong side ends on the right one; a swap that raises the energy is not
+//! kept; `fit::fit` runs the test after its descent only when asked.
+
+use diffsil::pose::figure::builtin_figure;
+use diffsil::pose::fit::{
+    fit, framing_ring, limb_swaps, limb_swing_hypotheses, per_vertex_error, FitOptions, FitSettings, LimbSwap, PoseFit,
+    RAISED_ELEVATION_DEG,
+};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
+use diffsil::{Camera, Image, Mat3, RenderSettings, Renderer, Vec3};
+
+/// The built-in figure with the legs in a stride and the arms swung (one forward, one back).
+fn striding() -> (SkinnedMesh, Pose) {
+    let model = builtin_figure();
+    let poses = limb_swing_hypotheses(&model, 0.5, 0.6).unwrap();
+    // Rest, then (legs +, arms −), (legs +, arms +), ...: the second one.
+    let mut pose = poses[1].clone();
+    pose.orientation = Vec3::new(0.0, 0.3, 0.0);
+    (model, pose)
+}
+
+/// The candidate of `kind` among `limb_swaps(model, pose)`.
+fn candidate(model: &SkinnedMesh, pose: &Pose, kind: LimbSwap) -> Pose {
+    limb_swaps(model, pose).unwrap().into_iter().find(|(k, _)| *k == kind).expect("candidate present").1
+}
+
+/// The limbs' first joints, from the candidates' kinds: legs then arms.
+fn limbs(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
+    limb_swaps(model, pose)
+        .unwrap()
+        .into_iter()
+        .filter_map(|(k, _)| match k {
+            LimbSwap::Mirror(j) => Some(j),
+            _ => None,
+        })
+        .collect()
+}
+
+/// 4 views on the raised ring at `resolution`², the silhouettes of `truth`.
+fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<Camera>, Vec<Image>) {
+    let rest = model.posed_mesh(&Pose::rest(model.joint_count())).unwrap();
+    let cameras = framing_ring(&rest, 4, resolution, RAISED_ELEVATION_DEG.to_radians());
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let targets = renderer.render(&model.posed_mesh(truth).unwrap(), &cameras).unwrap().images().to_vec();
+    (cameras, targets)
+}
+
+fn fit_from(model: &SkinnedMesh, start: &Pose, cameras: Vec<Camera>, targets: Vec<Image>) -> PoseFit {
+    let renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let settings = FitSettings { initial: Some(start.clone()), ..FitSettings::default() };
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, settings).unwrap();
+    fit.set_pose_prior(PoseFit::POSE_PRIOR).unwrap();
+    fit
+}
+
+#[test]
+fn there_are_candidates_for_each_limb_and_the_legs() {
+    let (model, pose) = striding();
+    let kinds: Vec<LimbSwap> = limb_swaps(&model, &pose).unwrap().into_iter().map(|(k, _)| k).collect();
+    assert_eq!(limbs(&model, &pose).len(), 4, "{kinds:?}");
+    assert!(kinds.contains(&LimbSwap::MirrorLegs) && kinds.contains(&LimbSwap::ExchangeLegs), "{kinds:?}");
+}
+
+#[test]
+fn a_mirrored_limb_is_the_limb_reflected_in_the_coronal_plane_and_twice_is_the_pose() {
+    let (model, pose) = striding();
+    let world = model.joint_transforms(&pose).unwrap();
+    let at = |g: &[glam::Mat4], j: usize| g[j].w_axis.truncate();
+    let [left_leg, right_leg, ..] = limbs(&model, &pose)[..] else { panic!("no legs") };
+    // The body's forward axis: across the hips and up the body, turned by the orientation.
+    let [.., left_arm, right_arm] = limbs(&model, &pose)[..] else { panic!("no arms") };
+    let mid = |a: usize, b: usize| 0.5 * (at(&world, a) + at(&world, b));
+    let lateral = at(&world, left_leg) - at(&world, right_leg);
+    let forward = lateral.cross(mid(left_arm, right_arm) - mid(left_leg, right_leg)).normalize();
+    let mirrored = candidate(&model, &pose, LimbSwap::Mirror(left_leg));
+    let after = model.joint_transforms(&mirrored).unwrap();
+    let children: Vec<usize> =
+        (0..model.joint_count()).filter(|&c| model.skeleton.parents[c] == Some(left_leg)).collect();
+    let knee = children[0];
+    let before_offset = at(&world, knee) - at(&world, left_leg);
+    let after_offset = at(&after, knee) - at(&after, left_leg);
+    assert!(before_offset.dot(forward).abs() > 0.05 * before_offset.length(), "the leg swings: {before_offset}");
+    // Each joint of the limb moved by M·T·M (M the reflection in the coronal plane) where it
+    // moved by T: T = Q·Q⁰ᵀ, Q its world rotation at the pose, Q⁰ at rest.
+    let reflect = |v: Vec3| v - 2.0 * v.dot(forward) * forward;
+    let m = Mat3::from_cols(reflect(Vec3::X), reflect(Vec3::Y), reflect(Vec3::Z));
+    let rest = model.joint_transforms(&Pose::rest(model.joint_count())).unwrap();
+    let rotation = |g: &glam::Mat4| Mat3::from_mat4(*g);
+    for j in [left_leg, knee] {
+        let moved = rotation(&world[j]) * rotation(&rest[j]).transpose();
+        let expected = m * moved * m;
+        let got = rotation(&after[j]) * rotation(&rest[j]).transpose();
+        assert!(got.abs_diff_eq(expected, 1e-4), "joint {j}: {got} vs {expected}");
+    }
+    // So the knee swings to the other side, nearly its reflection (the thigh's rest bone is
+    // nearly in the coronal plane).
+    let reflected = reflect(before_offset);
+    assert!(after_offset.dot(forward) * before_offset.dot(forward) < 0.0);
+    assert!((after_offset - reflected).length() < 0.05 * before_offset.length(), "{after_offset} vs {reflected}");
+    // The other leg and the arms did not move.
+    for j in [right_leg, limbs(&model, &pose)[2]] {
+        assert!((at(&after, j) - at(&world, j)).length() < 1e-6);
+        assert_eq!(mirrored.joint_rotations[j], pose.joint_rotations[j]);
+    }
+    // Twice is the pose (the same vertices).
+    let twice = candidate(&model, &mirrored, LimbSwap::Mirror(left_leg));
+    let error = per_vertex_error(&model.skin(&twice).unwrap(), &model.skin(&pose).unwrap());
+    assert!(error < 1e-4, "mirrored twice is {error} m off");
+    // Exchanging the legs twice too; once, the legs trade places front to back.
+    let exchanged = candidate(&model, &pose, LimbSwap::ExchangeLegs);
+    let twice = candidate(&model, &exchanged, LimbSwap::ExchangeLegs);
+    assert!(per_vertex_error(&model.skin(&twice).unwrap(), &model.skin(&pose).unwrap()) < 1e-4);
+    let swapped = model.joint_transforms(&exchanged).unwrap();
+    let foot_forward = |g: &[glam::Mat4], leg: usize| {
+        let knee = (0..model.joint_count()).find(|&c| model.skeleton.parents[c] == Some(leg)).unwrap();
+        (at(g, knee) - at(g, leg)).dot(forward)
+    };
+    let (l, r) = (foot_forward(&world, left_leg), foot_forward(&world, right_leg));
+    let (l2, r2) = (foot_forward(&swapped, left_leg), foot_forward(&swapped, right_leg));
+    assert!(l * r < 0.0, "a stride: {l} {r}");
+    // (Nearly: each leg keeps its own rest bone, and the legs' rest bones are not exactly mirror
+    // images in the sagittal plane through the hips' midpoint.)
+    let tolerance = 0.05 * (l.abs() + r.abs());
+    assert!((l2 - r).abs() < tolerance && (r2 - l).abs() < tolerance, "exchanged {l2} {r2}, was {l} {r}");
+}
+
+#[test]
+fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
+    let (model, truth) = striding();
+    let [_, _, arm, _] = limbs(&model, &truth)[..] else { panic!("no arms") };
+    let (cameras, targets) = views(&model, &truth, 48);
+    let wrong = candidate(&model, &truth, LimbSwap::Mirror(arm));
+    let truth_vertices = model.skin(&truth).unwrap();
+    let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
+    // Compared as they are, and after 4 refinement steps of the pose and every candidate.
+    for steps in [0, 4] {
+        let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+        // A fresh Adam's first steps move every parameter by the learning rate (a fit's own
+        // Adam has settled by the end of its descent): small steps here.
+        fit.set_learning_rate(0.002).unwrap();
+        let report = fit.swap_limbs(steps).unwrap();
+        assert_eq!(report.kept, Some(LimbSwap::Mirror(arm)), "{report:?}");
+        let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
+        assert!(error < 0.2 * start_error, "{steps} steps: {start_error} m → {error} m");
+        let kept = report.candidates.iter().find(|(k, _)| *k == LimbSwap::Mirror(arm)).unwrap().1;
+        assert!(kept < report.energy, "{report:?}");
+        assert!((fit.energy().unwrap() - kept).abs() <= 1e-9 * kept.max(1e-12), "{report:?}");
+    }
+}
+
+#[test]
+fn a_swap_that_raises_the_energy_is_not_kept() {
+    let (model, truth) = striding();
+    let (cameras, targets) = views(&model, &truth, 48);
+    for steps in [0, 3] {
+        let mut fit = fit_from(&model, &truth, cameras.clone(), targets.clone());
+        fit.set_learning_rate(0.002).unwrap();
+        let report = fit.swap_limbs(steps).unwrap();
+        assert_eq!(report.kept, None, "{report:?}");
+        assert_eq!(report.candidates.len(), 6);
+        assert!(report.candidates.iter().all(|(_, e)| *e > report.energy), "{report:?}");
+        if steps == 0 {
+            let error = per_vertex_error(&fit.vertices().unwrap(), &model.skin(&truth).unwrap());
+            assert!(error < 1e-6, "stayed at the truth: {error} m");
+        }
+    }
+}
+
+#[test]
+fn the_library_call_runs_the_swap_test_when_asked() {
+    let (model, truth) = striding();
+    let (cameras, targets) = views(&model, &truth, 24);
+    let renderer = || Renderer::new(RenderSettings::default()).unwrap();
+    let options = FitOptions { steps: 40, swap_steps: 2, ..FitOptions::default() };
+    let with = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .unwrap();
+    let swap = with.swap.expect("the swap test ran");
+    assert_eq!(swap.candidates.len(), 6);
+    let options = FitOptions { swap_steps: 0, ..options };
+    let without =
+        fit(model, cameras, targets, renderer(), &options, |_, _| std::ops::ControlFlow::Continue(())).unwrap();
+    assert!(without.swap.is_none());
+}
