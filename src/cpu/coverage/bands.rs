@@ -10,9 +10,8 @@ use crate::mirror::RasterParams;
 /// Triangles per parallel task of the per-triangle pass.
 const TRIANGLES_PER_TASK: usize = 8192;
 
-/// [`coverage`] for a small image: the per-triangle pass (parallel, in chunks) lists the set-up
-/// triangles, then one task draws them all into the masks (few triangles of a small image cover a
-/// sample, so drawing them costs less than merging a mask per task would).
+/// [`coverage`] for a small image: each task draws its triangles at once into a mask of the whole
+/// image, and the masks are OR-ed (the same bits in any order).
 pub(super) fn draw_direct(
     params: &RasterParams,
     pass: &SetupPass<'_>,
@@ -23,26 +22,37 @@ pub(super) fn draw_direct(
 ) -> TriangleSummary {
     let f = params.supersample as i64;
     let step = 2 * pass.h;
-    let tasks: Vec<(Vec<Setup>, TriangleSummary)> = triangles
+    let full = (0, params.height as i64 * f - 1);
+    let draw_chunk = |mask: &mut [u32], chunk: &[[u32; 3]], boxes: &mut [[i32; 4]]| {
+        let mut band = Band::new(params, mask, 0);
+        let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
+        match Shift::of(step) {
+            Some(s) => pass.run(s, snapped, chunk, boxes, draw),
+            None => pass.run(Divide(step), snapped, chunk, boxes, draw),
+        }
+    };
+    masks.fill(0);
+    if triangles.len() <= TRIANGLES_PER_TASK {
+        // One task: straight into the masks.
+        return draw_chunk(masks, triangles, boxes);
+    }
+    let (drawn, summary) = triangles
         .par_chunks(TRIANGLES_PER_TASK)
         .zip(boxes.par_chunks_mut(TRIANGLES_PER_TASK))
-        .map(|(chunk, boxes)| {
-            let mut list = Vec::new();
-            let push = |setup: &Setup, _: i64, _: i64| list.push(*setup);
-            let summary = match Shift::of(step) {
-                Some(s) => pass.run(s, snapped, chunk, boxes, push),
-                None => pass.run(Divide(step), snapped, chunk, boxes, push),
-            };
-            (list, summary)
+        .fold(
+            || (vec![0u32; masks.len()], TriangleSummary::default()),
+            |(mut mask, summary), (chunk, boxes)| {
+                let chunk_summary = draw_chunk(&mut mask, chunk, boxes);
+                (mask, summary + chunk_summary)
+            },
+        )
+        .reduce_with(|(mut a, sa), (b, sb)| {
+            a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
+            (a, sa + sb)
         })
-        .collect();
-    masks.fill(0);
-    let full = (0, params.height as i64 * f - 1);
-    let mut band = Band::new(params, masks, 0);
-    for setup in tasks.iter().flat_map(|t| &t.0) {
-        setup.draw(params, full, &mut band);
-    }
-    tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
+        .unwrap_or_else(|| (vec![0; masks.len()], TriangleSummary::default()));
+    masks.copy_from_slice(&drawn);
+    summary
 }
 
 /// [`coverage`] for a larger image: the set-up triangles go to per-band lists, then each band
@@ -95,8 +105,8 @@ pub(super) fn draw_in_bands(
     tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
 }
 
-/// Mask words up to which [`coverage`] draws the set-up triangles in one task (64² pixels at
-/// F ≤ 5) rather than sorting them into bands first.
+/// Mask words up to which [`coverage`] draws each task's triangles into a mask of the whole image
+/// (64² pixels at F ≤ 5) rather than sorting them into bands first.
 pub(super) const DIRECT_WORDS: usize = 64 * 64;
 
 /// Appends `setup` to the lists of the bands its sample rows `r0..=r1` overlap.

@@ -31,9 +31,10 @@ pub use triangle::SnappedTriangle;
 /// lane in loops the compiler vectorises, and only the triangles with no clipped vertex and a
 /// non-empty sample box within the image go on, one by one, to the set-up, where a zero snapped
 /// area or a skippable back face still leaves them out before any edge setup (at 16²–64² most of
-/// a dense mesh's triangles cover no sample centre and stop at the block). A small image's set-up
-/// triangles are then drawn by one task; a larger image is split into horizontal bands, one task
-/// each, that draw the set-up triangles overlapping them (the WGSL stage works per tile from the
+/// a dense mesh's triangles cover no sample centre and stop at the block). For a small image each
+/// task draws its set-up triangles at once into a mask of the whole image and the masks are OR-ed;
+/// a larger image is split into horizontal bands, one task each, that draw the set-up triangles
+/// overlapping them (the WGSL stage works per tile from the
 /// `bin` stage's lists instead; the masks are the same because coverage is an OR over
 /// triangles). Boxes of one sample are tested directly, small triangles sample by sample with
 /// incremental edge functions, large ones row by row with exact spans; all evaluate
