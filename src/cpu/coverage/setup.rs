@@ -190,6 +190,7 @@ impl SetupPass<'_> {
         let (last_col, last_row, limit) = (self.last[0] as i32, self.last[1] as i32, self.limit as i32);
         let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
         let (mut culled, mut extent, mut hit) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
+        let mut sample_box = [[0i32; 4]; BLOCK];
         for l in 0..BLOCK {
             let invalid = (x[0][l] == INVALID_SNAPPED) | (x[1][l] == INVALID_SNAPPED) | (x[2][l] == INVALID_SNAPPED);
             let b = [
@@ -213,6 +214,7 @@ impl SetupPass<'_> {
             culled[l] = 1 - valid;
             extent[l] = e & -valid;
             hit[l] = valid & (c0 <= c1) as i32 & (r0 <= r1) as i32;
+            sample_box[l] = [c0, c1, r0, r1];
         }
         let n = outs.len();
         for (l, out) in outs.iter_mut().enumerate() {
@@ -227,19 +229,16 @@ impl SetupPass<'_> {
             let l = hits.trailing_zeros() as usize;
             hits &= hits - 1;
             let b = [lo_x[l], lo_y[l], hi_x[l], hi_y[l]];
-            self.set_up([0, 1, 2].map(|k| [x[k][l], y[k][l]]), b, step, sink);
+            self.set_up([0, 1, 2].map(|k| [x[k][l], y[k][l]]), b, sample_box[l], sink);
         }
     }
 
-    /// The set-up of a triangle whose sample box is not empty (vertices `v`, box `b`): hands it
-    /// to `sink` unless its snapped area is zero or it is a skippable back face.
+    /// The set-up of a triangle whose sample box `[c0, c1, r0, r1]` (first and last sample column
+    /// and row) is not empty (vertices `v`, box `b`): hands it to `sink` unless its snapped area is
+    /// zero or it is a skippable back face.
     #[inline(always)]
-    fn set_up(&self, v: [[i32; 2]; 3], b: [i32; 4], step: impl FloorDiv, sink: &mut impl FnMut(&Setup, i64, i64)) {
-        let h = self.h;
-        let c0 = step.of(b[0] as i64 + h - 1).max(0);
-        let c1 = step.of(b[2] as i64 - h).min(self.last[0]);
-        let r0 = step.of(b[1] as i64 + h - 1).max(0);
-        let r1 = step.of(b[3] as i64 - h).min(self.last[1]);
+    fn set_up(&self, v: [[i32; 2]; 3], b: [i32; 4], sample_box: [i32; 4], sink: &mut impl FnMut(&Setup, i64, i64)) {
+        let [c0, c1, r0, r1] = sample_box;
         let w = v.map(|p| [p[0] as i64, p[1] as i64]);
         let area2 = area2(&w);
         if area2 == 0 || (area2 < 0 && self.skip.is_some_and(|s| s.skips(b))) {
@@ -250,7 +249,7 @@ impl SetupPass<'_> {
         for k in 0..3 {
             bias |= (is_top_left(w[k], w[(k + 1) % 3]) as u8) << k;
         }
-        sink(&Setup { v, bias, cols: [c0 as i32, c1 as i32], rows: [r0 as i32, r1 as i32] }, r0, r1);
+        sink(&Setup { v, bias, cols: [c0, c1], rows: [r0, r1] }, r0 as i64, r1 as i64);
     }
 }
 
