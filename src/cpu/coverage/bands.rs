@@ -8,7 +8,7 @@ use super::TriangleSummary;
 use crate::mirror::RasterParams;
 
 /// Triangles per parallel task of the per-triangle pass.
-const TRIANGLES_PER_TASK: usize = 4096;
+const TRIANGLES_PER_TASK: usize = 8192;
 
 /// [`coverage`] for a small image: each task draws its triangles at once into a mask of the whole
 /// image, and the masks are OR-ed (the same bits in any order).
@@ -22,31 +22,37 @@ pub(super) fn draw_direct(
 ) -> TriangleSummary {
     let f = params.supersample as i64;
     let step = 2 * pass.h;
-    {
-        let (drawn, summary) = triangles
-            .par_chunks(TRIANGLES_PER_TASK)
-            .zip(boxes.par_chunks_mut(TRIANGLES_PER_TASK))
-            .fold(
-                || (vec![0u32; masks.len()], TriangleSummary::default()),
-                |(mut mask, summary), (chunk, boxes)| {
-                    let mut band = Band::new(params, &mut mask, 0);
-                    let full = (0, params.height as i64 * f - 1);
-                    let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
-                    let chunk_summary = match Shift::of(step) {
-                        Some(s) => pass.run(s, snapped, chunk, boxes, draw),
-                        None => pass.run(Divide(step), snapped, chunk, boxes, draw),
-                    };
-                    (mask, summary + chunk_summary)
-                },
-            )
-            .reduce_with(|(mut a, sa), (b, sb)| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
-                (a, sa + sb)
-            })
-            .unwrap_or_else(|| (vec![0; masks.len()], TriangleSummary::default()));
-        masks.copy_from_slice(&drawn);
-        summary
+    let full = (0, params.height as i64 * f - 1);
+    let draw_chunk = |mask: &mut [u32], chunk: &[[u32; 3]], boxes: &mut [[i32; 4]]| {
+        let mut band = Band::new(params, mask, 0);
+        let draw = |setup: &Setup, _: i64, _: i64| setup.draw(params, full, &mut band);
+        match Shift::of(step) {
+            Some(s) => pass.run(s, snapped, chunk, boxes, draw),
+            None => pass.run(Divide(step), snapped, chunk, boxes, draw),
+        }
+    };
+    masks.fill(0);
+    if triangles.len() <= TRIANGLES_PER_TASK {
+        // One task: straight into the masks.
+        return draw_chunk(masks, triangles, boxes);
     }
+    let (drawn, summary) = triangles
+        .par_chunks(TRIANGLES_PER_TASK)
+        .zip(boxes.par_chunks_mut(TRIANGLES_PER_TASK))
+        .fold(
+            || (vec![0u32; masks.len()], TriangleSummary::default()),
+            |(mut mask, summary), (chunk, boxes)| {
+                let chunk_summary = draw_chunk(&mut mask, chunk, boxes);
+                (mask, summary + chunk_summary)
+            },
+        )
+        .reduce_with(|(mut a, sa), (b, sb)| {
+            a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
+            (a, sa + sb)
+        })
+        .unwrap_or_else(|| (vec![0; masks.len()], TriangleSummary::default()));
+    masks.copy_from_slice(&drawn);
+    summary
 }
 
 /// [`coverage`] for a larger image: the set-up triangles go to per-band lists, then each band

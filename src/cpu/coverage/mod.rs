@@ -26,11 +26,16 @@ pub use triangle::SnappedTriangle;
 /// leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are the same).
 ///
 /// The CPU works in two passes. A pass over the triangles (parallel, in chunks) sets up those
-/// that can cover a sample: a clipped vertex, a sample box (the sample positions inside the
-/// snapped bounding box) that is empty or off-image, a zero snapped area or a skippable back face
-/// leave a triangle out before any edge setup. The image is split into horizontal bands, one
-/// task each, that draw the set-up triangles overlapping them (the WGSL stage works per tile from
-/// the `bin` stage's lists instead; the masks are the same because coverage is an OR over
+/// that can cover a sample. It takes them in blocks of eight: the box, extent and sample box (the
+/// sample positions inside the snapped bounding box) of a block's triangles are computed lane by
+/// lane in loops the compiler vectorises, and only the triangles with no clipped vertex and a
+/// non-empty sample box within the image go on, one by one, to the set-up, where a zero snapped
+/// area or a skippable back face still leaves them out before any edge setup (at 16²–64² most of
+/// a dense mesh's triangles cover no sample centre and stop at the block). For a small image each
+/// task draws its set-up triangles at once into a mask of the whole image and the masks are OR-ed;
+/// a larger image is split into horizontal bands, one task each, that draw the set-up triangles
+/// overlapping them (the WGSL stage works per tile from the
+/// `bin` stage's lists instead; the masks are the same because coverage is an OR over
 /// triangles). Boxes of one sample are tested directly, small triangles sample by sample with
 /// incremental edge functions, large ones row by row with exact spans; all evaluate
 /// [`SnappedTriangle::covers`] exactly.

@@ -162,8 +162,11 @@ impl SnappedTriangle {
         let step_x = [0, 1, 2].map(|k| -(self.v[(k + 1) % 3][1] - self.v[k][1]) * 2 * h);
         let step_y = [0, 1, 2].map(|k| (self.v[(k + 1) % 3][0] - self.v[k][0]) * 2 * h);
         // Walk pixel by pixel and row by row (no division per sample or row).
-        let (first_pixel, first_a) = ((cols.0 / f) as usize, (cols.0 % f) as u32);
-        let (mut pixel_row, mut b) = ((rows.0 / f - band.pixel_row0) as usize, (rows.0 % f) as u32);
+        // Sample columns and rows are within the image (non-negative, below 2^32): 32-bit
+        // divisions, much cheaper than 64-bit ones.
+        let (c0, r0, fu) = (cols.0 as u32, rows.0 as u32, f as u32);
+        let (first_pixel, first_a) = ((c0 / fu) as usize, c0 % fu);
+        let (mut pixel_row, mut b) = ((r0 / fu) as usize - band.pixel_row0 as usize, r0 % fu);
         for _ in rows.0..=rows.1 {
             let mut e = row_e;
             let row = pixel_row * band.row_words;
