@@ -281,13 +281,19 @@ pub fn culled_triangles(screen: &[ScreenVertex], triangles: &[[u32; 3]]) -> u32 
 }
 
 /// Float bounding box `[xmin, ymin, −xmax, −ymax]` of a triangle, and its vertex positions.
+///
+/// With plain comparisons rather than `f32::min`/`max` (which handle NaN at a cost): the positions
+/// of valid vertices are finite, and where the two differ, on `-0.0` against `+0.0`, the box
+/// tests of `edge_grad` (`>` against finite bounds) give the same answer.
 fn float_box(screen: &[ScreenVertex], tri: [u32; 3]) -> ([f32; 4], [[f32; 2]; 3]) {
     let p = tri.map(|v| screen[v as usize].position);
+    let min = |a: f32, b: f32| if b < a { b } else { a };
+    let max = |a: f32, b: f32| if b > a { b } else { a };
     let bbox = [
-        p[0][0].min(p[1][0]).min(p[2][0]),
-        p[0][1].min(p[1][1]).min(p[2][1]),
-        -p[0][0].max(p[1][0]).max(p[2][0]),
-        -p[0][1].max(p[1][1]).max(p[2][1]),
+        min(min(p[0][0], p[1][0]), p[2][0]),
+        min(min(p[0][1], p[1][1]), p[2][1]),
+        -max(max(p[0][0], p[1][0]), p[2][0]),
+        -max(max(p[0][1], p[1][1]), p[2][1]),
     ];
     (bbox, p)
 }
@@ -333,7 +339,7 @@ fn tile_pairs<D: TileDiv>(
 ) {
     let tiles_x = range.tiles_x;
     let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
-    for (k, b) in chunk.iter().enumerate() {
+    for (k, b) in (first..).zip(chunk) {
         // A culled triangle's box is CULLED_BOX, whose x1 is negative.
         let (x0, y0) = (b[0] as i64 - 1, b[1] as i64 - 1);
         let (x1, y1) = (b[2] as i64 + 1, b[3] as i64 + 1);
@@ -345,7 +351,7 @@ fn tile_pairs<D: TileDiv>(
         for ty in ty0..=ty1 {
             for &slot in &slots[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
                 if slot != u32::MAX {
-                    pairs.push((slot, first + k as u32));
+                    pairs.push((slot, k));
                 }
             }
         }
@@ -353,19 +359,18 @@ fn tile_pairs<D: TileDiv>(
 }
 
 /// Triangles per parallel task of [`bin_tiles`].
-const TRIANGLES_PER_TASK: usize = 4096;
+const TRIANGLES_PER_TASK: usize = 16384;
 
-/// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]), built
-/// in parallel: cell `t` (row-major) is wanted when
-/// `slots[t] != u32::MAX`, and its list is number `slots[t]` (`0..lists`). The lists come in
-/// parts, one per task of consecutive triangles that lists any (tasks that list none are left
-/// out): list `n` is the concatenation over the returned parts of `part.tile(n)`, which holds the same triangles as [`bin`]'s list, in triangle order.
-/// Used by the CPU backward, which needs lists only where silhouette segments with a non-zero
-/// incoming gradient lie.
+/// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]): cell
+/// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `bins.tile(slots[t])`
+/// (`0..lists`), which holds the same triangles as [`bin`]'s list, in triangle order. Used by the
+/// CPU backward, which needs lists only where silhouette segments with a non-zero incoming
+/// gradient lie.
 ///
 /// Reads the triangles' snapped boxes (`boxes`, one per triangle, as [`snapped_boxes`] gives them
-/// and the CPU `coverage` pass writes them) rather than their snapped vertices: one sequential
-/// pass, no gather.
+/// and the CPU `coverage` pass writes them) rather than their snapped vertices: one pass, no
+/// gather, in parallel over runs of consecutive triangles (each gives its `(list, triangle)`
+/// pairs in triangle order); then one counting sort by list, in triangle order within a list.
 pub fn bin_tiles(
     params: &RasterParams,
     grid: CellGrid,
@@ -374,45 +379,42 @@ pub fn bin_tiles(
     boxes: &[[i32; 4]],
     slots: &[u32],
     lists: usize,
-) -> Vec<Bins> {
+) -> Bins {
     let range = TileRange::of_grid(params, grid);
+    let mut bins = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
     if lists == 0 {
-        return Vec::new();
+        return bins;
     }
-    boxes
+    let parts: Vec<Vec<(u32, u32)>> = boxes
         .par_chunks(TRIANGLES_PER_TASK)
         .enumerate()
         .map(|(task, chunk)| {
-            // (list, triangle) pairs in triangle order, then sorted by list (stably).
             let (mut pairs, first) = (Vec::new(), (task * TRIANGLES_PER_TASK) as u32);
             match range.shift {
                 Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, &mut pairs),
                 None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, &mut pairs),
             }
-            if pairs.is_empty() {
-                return None;
-            }
-            let mut part = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
-            for &(slot, _) in &pairs {
-                part.offsets[slot as usize + 1] += 1;
-            }
-            for t in 0..lists {
-                part.offsets[t + 1] += part.offsets[t];
-            }
-            let mut cursor = part.offsets.clone();
-            part.triangles.resize(pairs.len(), 0);
-            part.boxes.resize(pairs.len(), [0.0; 4]);
-            part.vertices.resize(pairs.len(), [[0.0; 2]; 3]);
-            for &(slot, t) in &pairs {
-                let c = &mut cursor[slot as usize];
-                (part.boxes[*c as usize], part.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
-                part.triangles[*c as usize] = t;
-                *c += 1;
-            }
-            Some(part)
+            pairs
         })
-        .flatten()
-        .collect()
+        .collect();
+    for &(slot, _) in parts.iter().flatten() {
+        bins.offsets[slot as usize + 1] += 1;
+    }
+    for t in 0..lists {
+        bins.offsets[t + 1] += bins.offsets[t];
+    }
+    let entries = bins.offsets[lists] as usize;
+    let mut cursor = bins.offsets[..lists].to_vec();
+    bins.triangles.resize(entries, 0);
+    bins.boxes.resize(entries, [0.0; 4]);
+    bins.vertices.resize(entries, [[0.0; 2]; 3]);
+    for &(slot, t) in parts.iter().flatten() {
+        let c = &mut cursor[slot as usize];
+        (bins.boxes[*c as usize], bins.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
+        bins.triangles[*c as usize] = t;
+        *c += 1;
+    }
+    bins
 }
 
 #[cfg(test)]
@@ -508,10 +510,10 @@ mod tests {
                 wanted.push(t);
             }
             let boxes = snapped_boxes(&snapped, &triangles);
-            let parts = bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len());
+            let lists = bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len());
             for (slot, &t) in wanted.iter().enumerate() {
                 let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
-                let b: Vec<_> = parts.iter().flat_map(|p| p.tile(slot)).map(|(i, b, v)| (i, *b, *v)).collect();
+                let b: Vec<_> = lists.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
                 assert_eq!(a, b, "tile {t}");
             }
         }

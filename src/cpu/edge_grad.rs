@@ -235,10 +235,10 @@ struct Scratch {
 /// parameter interval whose outside is covered by no triangle of the lists of its cells (a
 /// triangle listed in several is tested again, which adds the same interval again and changes
 /// nothing), and that no coincident edge ranking before the edge (`rank`, [`coincident_rank`])
-/// carries. `lists` maps a cell of the grid (`cells_x` per row) to its list in `parts`.
+/// carries. `lists` maps a cell of the grid (`cells_x` per row) to its list in `bins`.
 #[allow(clippy::too_many_arguments)]
 fn visible_weights(
-    (parts, lists, cells_x): (&[Bins], &[u32], usize),
+    (bins, lists, cells_x): (&Bins, &[u32], usize),
     (va, vb, outward): (DVec2, DVec2, DVec2),
     rank: u32,
     segment: &Segment,
@@ -259,40 +259,35 @@ fn visible_weights(
     let [cx0, cy0, cx1, cy1] = segment.cells.map(|c| c as usize);
     for cell in (cy0..=cy1).flat_map(|cy| cy * cells_x + cx0..=cy * cells_x + cx1) {
         let n = lists[cell] as usize;
-        for part in parts {
-            let list = part.offsets[n] as usize..part.offsets[n + 1] as usize;
-            if list.is_empty() {
+        let list = bins.offsets[n] as usize..bins.offsets[n + 1] as usize;
+        let list_start = list.start;
+        let (boxes, vertices) = (&bins.boxes[list.clone()], &bins.vertices[list]);
+        // The entries whose box meets the segment's, gathered without a branch per entry (about
+        // one in five passes, unpredictably).
+        if hits.len() < boxes.len() {
+            hits.resize(boxes.len(), 0);
+        }
+        let mut count = 0;
+        for (k, b) in boxes.iter().enumerate() {
+            hits[count] = k as u32;
+            count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
+        }
+        for &k in &hits[..count] {
+            let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+            // A triangle on the inside of the edge's line (closed half-plane) covers no point just
+            // outside it: the usual case (the edge's own faces and their neighbours). The signs
+            // are exact (f32 differences, their products and one sum of two in f64).
+            // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
+            let side = q.map(|p| (p - va).dot(outward));
+            let yields = bins.triangles[list_start + k as usize] < rank;
+            if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
                 continue;
             }
-            let list_start = list.start;
-            let (boxes, vertices) = (&part.boxes[list.clone()], &part.vertices[list]);
-            // The entries whose box meets the segment's, gathered without a branch per entry (about
-            // one in five passes, unpredictably).
-            if hits.len() < boxes.len() {
-                hits.resize(boxes.len(), 0);
-            }
-            let mut count = 0;
-            for (k, b) in boxes.iter().enumerate() {
-                hits[count] = k as u32;
-                count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
-            }
-            for &k in &hits[..count] {
-                let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
-                // A triangle on the inside of the edge's line (closed half-plane) covers no point just
-                // outside it: the usual case (the edge's own faces and their neighbours). The signs
-                // are exact (f32 differences, their products and one sum of two in f64).
-                // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
-                let side = q.map(|p| (p - va).dot(outward));
-                let yields = part.triangles[list_start + k as usize] < rank;
-                if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
-                    continue;
-                }
-                if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
-                    let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
-                    intervals.insert(at, iv);
-                    if covers(intervals, c) {
-                        return (0.0, 0.0);
-                    }
+            if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
+                let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
+                intervals.insert(at, iv);
+                if covers(intervals, c) {
+                    return (0.0, 0.0);
                 }
             }
         }
@@ -311,7 +306,7 @@ fn visible_weights(
 
 /// Sums the visible weights of an edge's segments (in walk order) into its slot.
 fn accumulate(
-    parts: (&[Bins], &[u32], usize),
+    lists: (&Bins, &[u32], usize),
     geometry: (DVec2, DVec2, DVec2),
     rank: u32,
     segments: &[Segment],
@@ -321,7 +316,7 @@ fn accumulate(
     let (mut wa, mut wb) = (0.0f64, 0.0f64);
     for segment in segments {
         stats.segments += 1;
-        let (visible_a, visible_b) = visible_weights(parts, geometry, rank, segment, scratch);
+        let (visible_a, visible_b) = visible_weights(lists, geometry, rank, segment, scratch);
         if visible_a != 0.0 || visible_b != 0.0 {
             stats.visible_segments += 1;
         }
@@ -393,7 +388,7 @@ pub fn edge_grad(
             }
         }
     }
-    let parts = bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, &cell_lists, lists as usize);
+    let bins = bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, &cell_lists, lists as usize);
     let mut results = vec![(EdgeGrad::default(), BackwardStats::default()); candidates.len()];
     results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
         |((out, chunk), (segments, ends))| {
@@ -406,7 +401,7 @@ pub fn edge_grad(
                     // The rank matters only to a segment's occluders: an edge with none skips it.
                     let rank =
                         if pieces.is_empty() { u32::MAX } else { coincident_rank(screen, topology, candidate.0) };
-                    *result = accumulate((&parts, &cell_lists, cells_x), g, rank, pieces, &mut scratch);
+                    *result = accumulate((&bins, &cell_lists, cells_x), g, rank, pieces, &mut scratch);
                 }
             }
         },

@@ -13,33 +13,32 @@
 //! flip or vanish when snapped, which moves the silhouette to the wrong edges and lets the
 //! sliver occlude the edges that remain.
 
-use rayon::prelude::*;
-
 use crate::mirror::ScreenVertex;
 use crate::scene::mesh::Topology;
 
 /// Orientation of every face in screen space: the sign of `cross(v1 − v0, v2 − v0)` (+1, −1), or 0
 /// for a face with a clipped vertex or zero area. f32 differences and their products are exact
 /// in f64, so the sign is exact. Reads the screen vertices; writes `orientation` (one per face).
+///
+/// One sequential pass without a branch per face: the forward runs it beside the `coverage` pass
+/// (`rayon::join`), which keeps the other core busy, and split across tasks it cost more
+/// instructions than it saved time.
 pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orientation: &mut [i8]) {
-    orientation.par_iter_mut().with_min_len(4096).zip(triangles.par_iter()).for_each(|(o, tri)| {
+    for (o, tri) in orientation.iter_mut().zip(triangles) {
         *o = face_orientation(screen, *tri);
-    });
+    }
 }
 
 /// The orientation of one face (see [`face_orientations`]).
 #[inline]
 pub fn face_orientation(screen: &[ScreenVertex], tri: [u32; 3]) -> i8 {
     let v = tri.map(|i| screen[i as usize]);
-    if v.iter().any(|s| s.valid == 0) {
-        return 0;
-    }
+    let valid = (v[0].valid != 0) & (v[1].valid != 0) & (v[2].valid != 0);
     let p = v.map(|s| [s.position[0] as f64, s.position[1] as f64]);
     let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
-    if cross > 0.0 {
-        1
-    } else if cross < 0.0 {
-        -1
+    let sign = (cross > 0.0) as i8 - (cross < 0.0) as i8;
+    if valid {
+        sign
     } else {
         0
     }
@@ -72,42 +71,30 @@ fn side_of(orientation: &[i8], faces: &[u32], forward: &[bool]) -> i32 {
     }
 }
 
-/// Edges per parallel task of [`edges`].
-const EDGES_PER_TASK: usize = 8192;
-
 /// Classifies every edge of the topology. Reads the face orientations; writes the candidates
 /// `(edge, side)` in edge order into `candidates` (the WGSL stage writes a side per edge instead;
 /// the non-candidates are the edges left out here).
+///
+/// One sequential pass (it runs beside the `coverage` pass, as [`face_orientations`] does) over
+/// the edges' two faces ([`Topology::edge_wings`]); only edges with another number of faces read
+/// their face lists.
 pub fn edges(orientation: &[i8], topology: &Topology, candidates: &mut Vec<(u32, i32)>) {
     let (offsets, faces, forward) =
         (topology.edge_face_offsets(), topology.edge_face_list(), topology.edge_face_forward());
-    let wings = topology.edge_wings();
-    let edge_count = topology.edges().len();
-    let parts: Vec<Vec<(u32, i32)>> = (0..edge_count.div_ceil(EDGES_PER_TASK))
-        .into_par_iter()
-        .map(|task| {
-            let mut part = Vec::new();
-            for e in task * EDGES_PER_TASK..((task + 1) * EDGES_PER_TASK).min(edge_count) {
-                let [f, g] = wings[e];
-                let side = if f != u32::MAX {
-                    // One face runs along the edge, the other against it: their sides are o(f) and
-                    // −o(g), and the edge is a candidate exactly when o(f) ≠ o(g) (a shortcut of
-                    // `side_of`, checked in the tests).
-                    (orientation[f as usize] as i32 - orientation[g as usize] as i32).signum()
-                } else {
-                    let range = offsets[e] as usize..offsets[e + 1] as usize;
-                    side_of(orientation, &faces[range.clone()], &forward[range])
-                };
-                if side != 0 {
-                    part.push((e as u32, side));
-                }
-            }
-            part
-        })
-        .collect();
     candidates.clear();
-    for part in parts {
-        candidates.extend(part);
+    for (e, &[f, g]) in topology.edge_wings().iter().enumerate() {
+        let side = if f != u32::MAX {
+            // One face runs along the edge, the other against it: their sides are o(f) and
+            // −o(g), and the edge is a candidate exactly when o(f) ≠ o(g) (a shortcut of
+            // `side_of`, checked in the tests).
+            (orientation[f as usize] as i32 - orientation[g as usize] as i32).signum()
+        } else {
+            let range = offsets[e] as usize..offsets[e + 1] as usize;
+            side_of(orientation, &faces[range.clone()], &forward[range])
+        };
+        if side != 0 {
+            candidates.push((e as u32, side));
+        }
     }
 }
 
@@ -125,5 +112,61 @@ mod tests {
                 assert_eq!((a as i32 - b as i32).signum(), general, "{a} {b}");
             }
         }
+    }
+
+    /// On a random open mesh with boundary edges, edges of three faces, degenerate faces and
+    /// clipped vertices, [`face_orientations`] gives the sign of the f64 cross product (0 where a
+    /// vertex is clipped) and [`edges`] lists exactly the edges whose [`edge_side`] is not 0, in
+    /// edge order, with that side.
+    #[test]
+    fn candidates_on_open_and_non_manifold_meshes() {
+        let mut seed = 0x243f_6a88_85a3_08d3u64;
+        let mut rand = move |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 33) as u32 % n
+        };
+        let mut kinds = [0usize; 3];
+        for case in 0..20 {
+            let n = 12;
+            let screen: Vec<ScreenVertex> = (0..n)
+                .map(|k| ScreenVertex {
+                    // Coarse coordinates so that some faces are degenerate (collinear vertices).
+                    position: [rand(4) as f32 * 0.5, rand(4) as f32 * 0.5],
+                    valid: (case % 3 != 0 || k % 5 != 2) as u32,
+                    pad: 0,
+                })
+                .collect();
+            let mut triangles = Vec::new();
+            while triangles.len() < 30 {
+                let t = [rand(n), rand(n), rand(n)];
+                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    triangles.push(t);
+                }
+            }
+            let Ok(topology) = Topology::new(n as usize, triangles.clone()) else { continue };
+            let mut orientation = vec![9i8; triangles.len()];
+            face_orientations(&screen, &triangles, &mut orientation);
+            for (tri, &o) in triangles.iter().zip(&orientation) {
+                let v = tri.map(|i| screen[i as usize]);
+                let p = v.map(|s| [s.position[0] as f64, s.position[1] as f64]);
+                let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+                let expected =
+                    if v.iter().any(|s| s.valid == 0) { 0.0 } else { cross.signum() * (cross != 0.0) as u8 as f64 };
+                assert_eq!(o as f64, expected, "case {case} {tri:?}");
+            }
+            let mut candidates = vec![(7, 7)];
+            edges(&orientation, &topology, &mut candidates);
+            let expected: Vec<(u32, i32)> = (0..topology.edges().len())
+                .map(|e| (e as u32, edge_side(&orientation, &topology, e)))
+                .filter(|c| c.1 != 0)
+                .collect();
+            assert_eq!(candidates, expected, "case {case}");
+            for e in 0..topology.edges().len() {
+                kinds[topology.edge_faces(e).len().min(3) - 1] += 1;
+            }
+        }
+        assert!(kinds.iter().all(|&k| k > 10), "edges with 1, 2 and 3+ faces: {kinds:?}");
     }
 }
