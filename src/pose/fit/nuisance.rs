@@ -7,6 +7,7 @@ use glam::Vec3;
 
 use super::super::inflation;
 use super::{silhouette_pass, PoseFit};
+use crate::optim::Adam;
 use crate::{Error, Result};
 
 impl PoseFit {
@@ -35,14 +36,7 @@ impl PoseFit {
     /// constant within the step, so that a mask uniformly too fat or too thin is explained by
     /// `d` rather than by twisting the pose. Errors on a negative or non-finite rate.
     pub fn set_inflation_rate(&mut self, rate: f32) -> Result<()> {
-        if !(rate.is_finite() && rate >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative inflation rate, got {rate}")));
-        }
-        self.inflation_rate = rate;
-        if rate > 0.0 {
-            self.inflation_adam.learning_rate = rate;
-        }
-        Ok(())
+        set_rate("inflation", rate, &mut self.inflation_rate, &mut self.inflation_adam)
     }
 
     /// The inflation step size (0: `d` is not fitted).
@@ -120,14 +114,7 @@ impl PoseFit {
     /// fit it). Each step then also descends `∂E_sl/∂a`, and `a` is kept in [−1, 1]. Errors on a
     /// negative or non-finite rate.
     pub fn set_outline_rate(&mut self, rate: f32) -> Result<()> {
-        if !(rate.is_finite() && rate >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative outline rate, got {rate}")));
-        }
-        self.outline_rate = rate;
-        if rate > 0.0 {
-            self.outline_adam.learning_rate = rate;
-        }
-        Ok(())
+        set_rate("outline", rate, &mut self.outline_rate, &mut self.outline_adam)
     }
 
     /// The outline step size (0: `a` is not fitted).
@@ -152,4 +139,18 @@ impl PoseFit {
         )?;
         Ok(d_outline)
     }
+}
+
+/// Sets a nuisance's step size (`what` names it in the error): stores `rate` and, when it is
+/// positive, makes it the nuisance's own Adam learning rate (0 leaves the nuisance unfitted).
+/// Errors on a negative or non-finite rate.
+fn set_rate(what: &str, rate: f32, slot: &mut f32, adam: &mut Adam) -> Result<()> {
+    if !(rate.is_finite() && rate >= 0.0) {
+        return Err(Error::InvalidSettings(format!("need a non-negative {what} rate, got {rate}")));
+    }
+    *slot = rate;
+    if rate > 0.0 {
+        adam.learning_rate = rate;
+    }
+    Ok(())
 }
