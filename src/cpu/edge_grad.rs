@@ -225,8 +225,6 @@ fn covers(intervals: &[(f64, f64)], c: (f64, f64)) -> bool {
 /// Buffers reused from segment to segment.
 #[derive(Default)]
 struct Scratch {
-    /// Entries of a tile list whose box meets the segment's.
-    hits: Vec<u32>,
     /// Occluded parameter intervals.
     intervals: Vec<(f64, f64)>,
 }
@@ -254,7 +252,7 @@ fn visible_weights(
     let miss = Vec4::new(at_most(bb_hi.x), at_most(bb_hi.y), -at_least(bb_lo.x), -at_least(bb_lo.y));
     // Occluded intervals, kept sorted by (lo, hi). Once they cover the whole segment nothing
     // further can uncover any of it: the segment is hidden and the scan stops.
-    let Scratch { hits, intervals } = scratch;
+    let Scratch { intervals } = scratch;
     intervals.clear();
     let [cx0, cy0, cx1, cy1] = segment.cells.map(|c| c as usize);
     for cell in (cy0..=cy1).flat_map(|cy| cy * cells_x + cx0..=cy * cells_x + cx1) {
@@ -262,32 +260,33 @@ fn visible_weights(
         let list = bins.offsets[n] as usize..bins.offsets[n + 1] as usize;
         let list_start = list.start;
         let (boxes, vertices) = (&bins.boxes[list.clone()], &bins.vertices[list]);
-        // The entries whose box meets the segment's, gathered without a branch per entry (about
-        // one in five passes, unpredictably).
-        if hits.len() < boxes.len() {
-            hits.resize(boxes.len(), 0);
-        }
-        let mut count = 0;
-        for (k, b) in boxes.iter().enumerate() {
-            hits[count] = k as u32;
-            count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
-        }
-        for &k in &hits[..count] {
-            let q = vertices[k as usize].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
-            // A triangle on the inside of the edge's line (closed half-plane) covers no point just
-            // outside it: the usual case (the edge's own faces and their neighbours). The signs
-            // are exact (f32 differences, their products and one sum of two in f64).
-            // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
-            let side = q.map(|p| (p - va).dot(outward));
-            let yields = bins.triangles[list_start + k as usize] < rank;
-            if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
-                continue;
+        // The entries whose box meets the segment's, gathered block by block without a branch
+        // per entry (about one in five passes, unpredictably) and without a bounds check (an
+        // index below the block length, masked).
+        for (block, chunk) in boxes.chunks(SCAN_BLOCK).enumerate() {
+            let mut met = [0u8; SCAN_BLOCK];
+            let mut count = 0;
+            for (k, b) in chunk.iter().enumerate() {
+                met[count & (SCAN_BLOCK - 1)] = k as u8;
+                count += !Vec4::from_array(*b).cmpgt(miss).any() as usize;
             }
-            if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
-                let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
-                intervals.insert(at, iv);
-                if covers(intervals, c) {
-                    return (0.0, 0.0);
+            for k in met[..count].iter().map(|&k| block * SCAN_BLOCK + k as usize) {
+                let q = vertices[k].map(|p| DVec2::new(p[0] as f64, p[1] as f64));
+                // A triangle on the inside of the edge's line (closed half-plane) covers no point just
+                // outside it: the usual case (the edge's own faces and their neighbours). The signs
+                // are exact (f32 differences, their products and one sum of two in f64).
+                // Unless two of its vertices lie on the line (a coincident edge) and it ranks first.
+                let side = q.map(|p| (p - va).dot(outward));
+                let yields = bins.triangles[list_start + k] < rank;
+                if side.iter().all(|&h| h <= 0.0) && !(yields && side.iter().filter(|&&h| h == 0.0).count() >= 2) {
+                    continue;
+                }
+                if let Some(iv) = occluded_interval(q, va, vb, outward, c, yields) {
+                    let at = intervals.partition_point(|x| x.0.total_cmp(&iv.0).then(x.1.total_cmp(&iv.1)).is_le());
+                    intervals.insert(at, iv);
+                    if covers(intervals, c) {
+                        return (0.0, 0.0);
+                    }
                 }
             }
         }
@@ -327,6 +326,10 @@ fn accumulate(
     let (ga, gb) = (outward * wa, outward * wb);
     (EdgeGrad { a: [ga.x as f32, ga.y as f32], b: [gb.x as f32, gb.y as f32] }, stats)
 }
+
+/// Entries of an occluder list box-tested per block of [`visible_weights`] (at most 256, a power of
+/// two).
+const SCAN_BLOCK: usize = 64;
 
 /// Candidate edges per parallel task.
 const EDGES_PER_TASK: usize = 64;
@@ -498,6 +501,80 @@ mod tests {
         (EdgeGrad { a: [ga.x as f32, ga.y as f32], b: [gb.x as f32, gb.y as f32] }, stats)
     }
 
+    /// Runs the stage on a scene and asserts that every slot and the statistics are the
+    /// reference's; returns the statistics.
+    fn compare_with_reference(
+        params: &RasterParams,
+        grid: CellGrid,
+        screen: &[ScreenVertex],
+        topology: &Topology,
+        d_image: &[f32],
+        what: &str,
+    ) -> BackwardStats {
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let mut orientation = vec![0i8; topology.triangles().len()];
+        edges::face_orientations(screen, topology.triangles(), &mut orientation);
+        let mut candidates = Vec::new();
+        edges::edges(&orientation, topology, &mut candidates);
+        let mut slots = Vec::new();
+        let boxes = bin::snapped_boxes(&snapped, topology.triangles());
+        let stats = edge_grad(params, grid, screen, &boxes, topology, &candidates, d_image, &mut slots);
+        let mut full = Bins::default();
+        bin::bin(params, screen, &snapped, topology.triangles(), &mut full);
+        let mut expected = BackwardStats::default();
+        for (&(e, side), slot) in candidates.iter().zip(&slots) {
+            let edge = topology.edges()[e as usize];
+            let rank = coincident_rank(screen, topology, e);
+            let (grad, s) = reference_gradient(params, screen, topology.triangles(), &full, d_image, edge, side, rank);
+            assert_eq!(grad, *slot, "{what} edge {e}");
+            expected = expected + s;
+        }
+        assert_eq!(stats, expected, "{what}");
+        stats
+    }
+
+    /// Lists longer than a scan block ([`SCAN_BLOCK`]): two dense overlapping spheres in a small
+    /// image, listed per tile, so that a segment's occluders sit in every block of its list and at
+    /// the block ends, and each sphere hides part of the other's outline; the stage must give the
+    /// reference's bits.
+    #[test]
+    fn long_lists_same_bits_as_the_reference() {
+        let sphere = crate::scene::shapes::icosphere(4);
+        let n = sphere.positions().len() as u32;
+        let pair = crate::scene::mesh::Mesh::new(
+            sphere
+                .positions()
+                .iter()
+                .copied()
+                .chain(sphere.positions().iter().map(|p| *p * 0.8 + glam::Vec3::new(0.7, 0.4, 0.5)))
+                .collect(),
+            sphere.triangles().iter().copied().chain(sphere.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
+        )
+        .unwrap();
+        let (w, h) = (12, 10);
+        let mut params = RasterParams::new(w, h, 4, 1.0, 0.0).unwrap();
+        params.set_tile_size(4);
+        let screen: Vec<ScreenVertex> = pair
+            .positions()
+            .iter()
+            .map(|p| {
+                let (x, y) = (p.x as f64 + 0.2 * p.z as f64, p.y as f64 - 0.3 * p.z as f64);
+                let q = [w as f64 * (0.35 + 0.3 * x), h as f64 * (0.4 + 0.3 * y)];
+                ScreenVertex { position: q.map(|c| c as f32), valid: 1, pad: 0 }
+            })
+            .collect();
+        let d_image: Vec<f32> = (0..params.pixel_count()).map(|k| 0.25 + (k % 7) as f32 * 0.1).collect();
+        let grid = CellGrid::tiles(&params);
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let mut full = Bins::default();
+        bin::bin(&params, &screen, &snapped, pair.triangles(), &mut full);
+        let longest = (0..params.tiles_x * params.tiles_y).map(|t| full.tile(t as usize).count()).max().unwrap();
+        assert!(longest > 4 * SCAN_BLOCK, "lists of at most {longest} entries do not span several blocks");
+        let stats = compare_with_reference(&params, grid, &screen, pair.topology(), &d_image, "two dense spheres");
+        assert!(stats.segments > stats.visible_segments, "no hidden segment: {stats:?}");
+        assert!(stats.visible_segments > 0, "no visible segment: {stats:?}");
+    }
+
     /// The stage (lazy lists, f32 box test, gathered hits, early exit on hidden segments) gives the
     /// reference's bits, on random folded meshes with overlaps, ties on pixel borders, coincident
     /// edges (a mesh with a copy of itself) and a sparse `∂L/∂I`.
@@ -543,16 +620,9 @@ mod tests {
             if case % 3 == 1 {
                 screen.extend_from_within(..);
             }
-            let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
-            let mut orientation = vec![0i8; topology.triangles().len()];
-            edges::face_orientations(&screen, topology.triangles(), &mut orientation);
-            let mut candidates = Vec::new();
-            edges::edges(&orientation, topology, &mut candidates);
             let d_image: Vec<f32> = (0..params.pixel_count())
                 .map(|_| if rand() < 0.3 { 0.0 } else { (rand() * 2.0 - 1.0) as f32 })
                 .collect();
-            let mut slots = Vec::new();
-            let boxes = bin::snapped_boxes(&snapped, topology.triangles());
             // Occluders listed per tile, and per cell of finer grids (one not a power of two).
             let grid = match case % 4 {
                 0 => CellGrid::tiles(&params),
@@ -560,19 +630,7 @@ mod tests {
                 2 => CellGrid::new(&params, params.units / 16),
                 _ => CellGrid::new(&params, 3 * params.units / 5),
             };
-            let stats = edge_grad(&params, grid, &screen, &boxes, topology, &candidates, &d_image, &mut slots);
-            let mut full = Bins::default();
-            bin::bin(&params, &screen, &snapped, topology.triangles(), &mut full);
-            let mut expected = BackwardStats::default();
-            for (&(e, side), slot) in candidates.iter().zip(&slots) {
-                let edge = topology.edges()[e as usize];
-                let rank = coincident_rank(&screen, topology, e);
-                let (grad, s) =
-                    reference_gradient(&params, &screen, topology.triangles(), &full, &d_image, edge, side, rank);
-                assert_eq!(grad, *slot, "case {case} edge {e}");
-                expected = expected + s;
-            }
-            assert_eq!(stats, expected, "case {case}");
+            let stats = compare_with_reference(&params, grid, &screen, topology, &d_image, &format!("case {case}"));
             hidden += stats.segments - stats.visible_segments;
         }
         assert!(hidden > 100, "too few hidden segments ({hidden}) to test the early exit");
