@@ -367,16 +367,29 @@ fn tile_pairs<D: TileDiv>(
 /// Triangles per parallel task of [`bin_tiles`].
 const TRIANGLES_PER_TASK: usize = 16384;
 
+/// The occluder lists of [`bin_tiles`] and the buffers that build them, kept from call to call
+/// so that a loop of backward passes does not allocate them again.
+#[derive(Clone, Debug, Default)]
+pub struct CellBins {
+    /// The lists: `bins.tile(slot)` is the list of the cell numbered `slot`.
+    pub bins: Bins,
+    /// `(list, triangle)` pairs of each parallel task.
+    pairs: Vec<Vec<(u32, u32)>>,
+    /// Write positions of the counting sort, one per list.
+    cursor: Vec<u32>,
+}
+
 /// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]): cell
-/// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `bins.tile(slots[t])`
+/// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `out.bins.tile(slots[t])`
 /// (`0..lists`), which holds the same triangles as [`bin`]'s list, in triangle order. Used by the
 /// CPU backward, which needs lists only where silhouette segments with a non-zero incoming
-/// gradient lie.
+/// gradient lie. `out`'s buffers are refilled (allocated only where they must grow).
 ///
 /// Reads the triangles' snapped boxes (`boxes`, one per triangle, as [`snapped_boxes`] gives them
 /// and the CPU `coverage` pass writes them) rather than their snapped vertices: one pass, no
 /// gather, in parallel over runs of consecutive triangles (each gives its `(list, triangle)`
 /// pairs in triangle order); then one counting sort by list, in triangle order within a list.
+#[allow(clippy::too_many_arguments)]
 pub fn bin_tiles(
     params: &RasterParams,
     grid: CellGrid,
@@ -385,24 +398,28 @@ pub fn bin_tiles(
     boxes: &[[i32; 4]],
     slots: &[u32],
     lists: usize,
-) -> Bins {
+    out: &mut CellBins,
+) {
     let range = TileRange::of_grid(params, grid);
-    let mut bins = Bins { offsets: vec![0; lists + 1], ..Bins::default() };
+    let CellBins { bins, pairs, cursor } = out;
+    bins.offsets.clear();
+    bins.offsets.resize(lists + 1, 0);
+    bins.triangles.clear();
+    bins.boxes.clear();
+    bins.vertices.clear();
     if lists == 0 {
-        return bins;
+        return;
     }
-    let parts: Vec<Vec<(u32, u32)>> = boxes
-        .par_chunks(TRIANGLES_PER_TASK)
-        .enumerate()
-        .map(|(task, chunk)| {
-            let (mut pairs, first) = (Vec::new(), (task * TRIANGLES_PER_TASK) as u32);
-            match range.shift {
-                Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, &mut pairs),
-                None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, &mut pairs),
-            }
-            pairs
-        })
-        .collect();
+    pairs.resize_with(boxes.len().div_ceil(TRIANGLES_PER_TASK), Vec::new);
+    pairs.par_iter_mut().zip(boxes.par_chunks(TRIANGLES_PER_TASK)).enumerate().for_each(|(task, (pairs, chunk))| {
+        pairs.clear();
+        let first = (task * TRIANGLES_PER_TASK) as u32;
+        match range.shift {
+            Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, pairs),
+            None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, pairs),
+        }
+    });
+    let parts = &pairs[..boxes.len().div_ceil(TRIANGLES_PER_TASK)];
     for &(slot, _) in parts.iter().flatten() {
         bins.offsets[slot as usize + 1] += 1;
     }
@@ -410,7 +427,8 @@ pub fn bin_tiles(
         bins.offsets[t + 1] += bins.offsets[t];
     }
     let entries = bins.offsets[lists] as usize;
-    let mut cursor = bins.offsets[..lists].to_vec();
+    cursor.clear();
+    cursor.extend_from_slice(&bins.offsets[..lists]);
     bins.triangles.resize(entries, 0);
     bins.boxes.resize(entries, [0.0; 4]);
     bins.vertices.resize(entries, [[0.0; 2]; 3]);
@@ -420,7 +438,6 @@ pub fn bin_tiles(
         bins.triangles[*c as usize] = t;
         *c += 1;
     }
-    bins
 }
 
 #[cfg(test)]
@@ -503,6 +520,8 @@ mod tests {
     /// `bin_tiles` lists, for each wanted tile, what `bin` lists for it.
     #[test]
     fn wanted_tiles_get_the_full_lists() {
+        // One set of buffers for every case: each call refills what the one before left.
+        let mut lists = CellBins::default();
         for (f, tile_size) in [(4, 1), (3, 2), (4, 8)] {
             let mut params = RasterParams::new(40, 24, f, 1.0, 0.0).unwrap();
             params.set_tile_size(tile_size);
@@ -516,10 +535,10 @@ mod tests {
                 wanted.push(t);
             }
             let boxes = snapped_boxes(&snapped, &triangles);
-            let lists = bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len());
+            bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len(), &mut lists);
             for (slot, &t) in wanted.iter().enumerate() {
                 let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
-                let b: Vec<_> = lists.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
+                let b: Vec<_> = lists.bins.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
                 assert_eq!(a, b, "tile {t}");
             }
         }

@@ -223,7 +223,7 @@ fn covers(intervals: &[(f64, f64)], c: (f64, f64)) -> bool {
 }
 
 /// Buffers reused from segment to segment.
-#[derive(Default)]
+#[derive(Clone, Debug, Default)]
 struct Scratch {
     /// Occluded parameter intervals.
     intervals: Vec<(f64, f64)>,
@@ -334,6 +334,21 @@ const SCAN_BLOCK: usize = 64;
 /// Candidate edges per parallel task.
 const EDGES_PER_TASK: usize = 64;
 
+/// The buffers of [`edge_grad`], kept from call to call (one per view in flight).
+#[derive(Clone, Debug, Default)]
+pub struct EdgeGradScratch {
+    /// Each task's segments (in walk order) and the end of each candidate's among them.
+    walks: Vec<(Vec<Segment>, Vec<u32>)>,
+    /// The list number of each cell of the grid, `u32::MAX` for a cell no segment meets.
+    cell_lists: Vec<u32>,
+    /// The occluder lists of the cells that segments meet.
+    lists: bin::CellBins,
+    /// Each candidate's slot and statistics.
+    results: Vec<(EdgeGrad, BackwardStats)>,
+    /// Each task's scan buffers.
+    scans: Vec<Scratch>,
+}
+
 /// The gradient slot of every candidate edge: walks the pixels it crosses, keeps the visible
 /// parts of its segments and applies the closed form. Occluder lists are built only for the tiles
 /// the edges cross with a non-zero `∂L/∂I` (the CPU's lazy form of the `bin` stage: most tiles
@@ -346,7 +361,8 @@ const EDGES_PER_TASK: usize = 64;
 /// stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
 /// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
 /// segment is in the list of one of the segment's cells, and a triangle found twice or one that
-/// is no occluder adds nothing.
+/// is no occluder adds nothing. `scratch` holds the buffers of the walk, the lists and the scans
+/// from call to call: a loop of backward passes allocates only where a buffer must grow.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_grad(
     params: &RasterParams,
@@ -357,28 +373,31 @@ pub fn edge_grad(
     candidates: &[(u32, i32)],
     d_image: &[f32],
     slots: &mut Vec<EdgeGrad>,
+    scratch: &mut EdgeGradScratch,
 ) -> BackwardStats {
+    let EdgeGradScratch { walks, cell_lists, lists: cell_bins, results, scans } = scratch;
     let edges = topology.edges();
     let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
     // Walk every candidate edge once: its segments, grouped per task in candidate order.
-    let walks: Vec<(Vec<Segment>, Vec<u32>)> = candidates
-        .par_chunks(EDGES_PER_TASK)
-        .map(|chunk| {
-            let (mut segments, mut ends) = (Vec::new(), Vec::with_capacity(chunk.len()));
-            for candidate in chunk {
-                if let Some((va, vb, _)) = geometry(candidate) {
-                    edge_segments(params, &grid, d_image, va, vb, &mut segments);
-                }
-                ends.push(segments.len() as u32);
+    let tasks = candidates.len().div_ceil(EDGES_PER_TASK);
+    walks.resize_with(tasks, Default::default);
+    walks[..tasks].par_iter_mut().zip(candidates.par_chunks(EDGES_PER_TASK)).for_each(|((segments, ends), chunk)| {
+        segments.clear();
+        ends.clear();
+        for candidate in chunk {
+            if let Some((va, vb, _)) = geometry(candidate) {
+                edge_segments(params, &grid, d_image, va, vb, segments);
             }
-            (segments, ends)
-        })
-        .collect();
+            ends.push(segments.len() as u32);
+        }
+    });
+    let walks = &walks[..tasks];
     // Number the cells that a segment meets, and list the triangles of those cells only.
-    let mut cell_lists = vec![u32::MAX; grid.count()];
+    cell_lists.clear();
+    cell_lists.resize(grid.count(), u32::MAX);
     let mut lists = 0u32;
     let cells_x = grid.cells_x as usize;
-    for (segments, _) in &walks {
+    for (segments, _) in walks {
         for segment in segments {
             let [cx0, cy0, cx1, cy1] = segment.cells.map(|c| c as usize);
             for cy in cy0..=cy1 {
@@ -391,11 +410,17 @@ pub fn edge_grad(
             }
         }
     }
-    let bins = bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, &cell_lists, lists as usize);
-    let mut results = vec![(EdgeGrad::default(), BackwardStats::default()); candidates.len()];
-    results.par_chunks_mut(EDGES_PER_TASK).zip(candidates.par_chunks(EDGES_PER_TASK)).zip(&walks).for_each(
-        |((out, chunk), (segments, ends))| {
-            let mut scratch = Scratch::default();
+    bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, cell_lists, lists as usize, cell_bins);
+    let bins = &cell_bins.bins;
+    results.clear();
+    results.resize(candidates.len(), (EdgeGrad::default(), BackwardStats::default()));
+    scans.resize_with(tasks, Scratch::default);
+    results
+        .par_chunks_mut(EDGES_PER_TASK)
+        .zip(candidates.par_chunks(EDGES_PER_TASK))
+        .zip(walks)
+        .zip(&mut scans[..tasks])
+        .for_each(|(((out, chunk), (segments, ends)), scratch)| {
             let mut start = 0;
             for ((result, candidate), &end) in out.iter_mut().zip(chunk).zip(ends) {
                 let pieces = &segments[start..end as usize];
@@ -404,11 +429,10 @@ pub fn edge_grad(
                     // The rank matters only to a segment's occluders: an edge with none skips it.
                     let rank =
                         if pieces.is_empty() { u32::MAX } else { coincident_rank(screen, topology, candidate.0) };
-                    *result = accumulate((&bins, &cell_lists, cells_x), g, rank, pieces, &mut scratch);
+                    *result = accumulate((bins, cell_lists, cells_x), g, rank, pieces, scratch);
                 }
             }
-        },
-    );
+        });
     slots.clear();
     slots.extend(results.iter().map(|r| r.0));
     results.iter().fold(BackwardStats::default(), |a, r| a + r.1)
@@ -518,7 +542,8 @@ mod tests {
         edges::edges(&orientation, topology, &mut candidates);
         let mut slots = Vec::new();
         let boxes = bin::snapped_boxes(&snapped, topology.triangles());
-        let stats = edge_grad(params, grid, screen, &boxes, topology, &candidates, d_image, &mut slots);
+        let mut scratch = EdgeGradScratch::default();
+        let stats = edge_grad(params, grid, screen, &boxes, topology, &candidates, d_image, &mut slots, &mut scratch);
         let mut full = Bins::default();
         bin::bin(params, screen, &snapped, topology.triangles(), &mut full);
         let mut expected = BackwardStats::default();

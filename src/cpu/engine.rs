@@ -7,7 +7,7 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::project;
-use super::view::{backward_view, render_view, ViewState};
+use super::view::{backward_view, render_view, BackwardScratch, ViewState};
 use crate::engine::{BackwardStats, Engine, FrameRef, FrameState, RenderStats, Rendered, ViewInput};
 use crate::mirror::RasterParams;
 use crate::scene::mesh::Topology;
@@ -26,6 +26,9 @@ pub struct CpuEngine {
     /// Sample-mask buffers of earlier forwards (a frame does not keep its masks: the backward
     /// does not read them).
     spare_masks: Vec<Vec<u32>>,
+    /// The backward's buffers, one per view of the largest backward so far (at most
+    /// `MAX_SPARE_VIEWS`).
+    backward_scratch: Vec<BackwardScratch>,
 }
 
 /// Most view states [`CpuEngine`] keeps for reuse.
@@ -124,7 +127,19 @@ impl Engine for CpuEngine {
                     .into(),
             ));
         };
-        // Views side by side, as in the forward.
-        Ok(views.par_iter().zip(d_images).map(|(state, d_image)| backward_view(state, frame.topology, d_image)).unzip())
+        // Views side by side, as in the forward, each with buffers of an earlier backward (at
+        // most MAX_SPARE_VIEWS of them are kept).
+        let scratch = &mut self.backward_scratch;
+        if scratch.len() < views.len() {
+            scratch.resize_with(views.len(), BackwardScratch::default);
+        }
+        let result = views
+            .par_iter()
+            .zip(d_images)
+            .zip(scratch.par_iter_mut())
+            .map(|((state, d_image), scratch)| backward_view(state, frame.topology, d_image, scratch))
+            .unzip();
+        scratch.truncate(MAX_SPARE_VIEWS);
+        Ok(result)
     }
 }

@@ -34,4 +34,4 @@ pub mod resolve;
 mod view;
 
 pub use engine::CpuEngine;
-pub use view::{backward_view, forward_view, render_view, ViewState};
+pub use view::{backward_view, forward_view, render_view, BackwardScratch, ViewState};

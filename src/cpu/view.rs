@@ -4,7 +4,7 @@ use glam::Vec2;
 
 use super::{bin, coverage, edge_grad, edges, gather, resolve};
 use crate::engine::BackwardStats;
-use crate::mirror::{RasterParams, ScreenVertex};
+use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::scene::mesh::Topology;
 
 /// What the forward of one view keeps for its backward. Its buffers can be reused by the next
@@ -78,9 +78,23 @@ pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &T
     image
 }
 
-/// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`.
-pub fn backward_view(state: &ViewState, topology: &Topology, d_image: &[f32]) -> (Vec<Vec2>, BackwardStats) {
-    let mut slots = Vec::new();
+/// The buffers of [`backward_view`], kept from call to call (the CPU engine keeps one per view):
+/// a loop of steps allocates only the gradients it returns.
+#[derive(Clone, Debug, Default)]
+pub struct BackwardScratch {
+    /// The `edge_grad` stage's walk, occluder lists and scans.
+    edge_grad: edge_grad::EdgeGradScratch,
+    /// One gradient slot per candidate edge.
+    slots: Vec<EdgeGrad>,
+}
+
+/// Backward of one view: `∂L/∂I` (row-major) → `∂L/∂(screen vertex)`, with `scratch`'s buffers.
+pub fn backward_view(
+    state: &ViewState,
+    topology: &Topology,
+    d_image: &[f32],
+    scratch: &mut BackwardScratch,
+) -> (Vec<Vec2>, BackwardStats) {
     let stats = edge_grad::edge_grad(
         &state.params,
         state.grid,
@@ -89,9 +103,10 @@ pub fn backward_view(state: &ViewState, topology: &Topology, d_image: &[f32]) ->
         topology,
         &state.candidates,
         d_image,
-        &mut slots,
+        &mut scratch.slots,
+        &mut scratch.edge_grad,
     );
     let mut grads = vec![Vec2::ZERO; topology.vertex_count()];
-    gather::gather(topology, &state.candidates, &slots, &mut grads);
+    gather::gather(topology, &state.candidates, &scratch.slots, &mut grads);
     (grads, stats)
 }

@@ -42,7 +42,8 @@ fn step_rejects_mismatched_targets() {
     assert!(step.gradient.iter().all(|g| *g == Vec3::ZERO));
 }
 
-/// The CPU engine fills the buffers of the frames it rendered and that were dropped again: steps
+/// The CPU engine fills the buffers of the frames it rendered and that were dropped again, and
+/// those of its earlier backward passes (walks, occluder lists, slots): steps
 /// of other meshes, image sizes and view counts in one renderer give the bits of fresh
 /// renderers, and a frame kept alive across steps keeps its own state.
 #[test]
