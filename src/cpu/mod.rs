@@ -10,7 +10,8 @@
 //! than a pixel) → [`gather`](gather::gather).
 //!
 //! The engine keeps the states of dropped frames and refills their buffers ([`render_view`]),
-//! so a loop of steps allocates only what it returns.
+//! and keeps the backward's buffers per view ([`BackwardScratch`]), so a loop of steps allocates
+//! only what it returns.
 //!
 //! The forward chooses the tile size (as [`bin::choose_tile_size`] does, from the extents the
 //! coverage pass adds up) but builds no tile lists: only the backward uses them, and only in the
