@@ -379,8 +379,13 @@ pub fn edge_grad(
     let edges = topology.edges();
     let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
     // Walk every candidate edge once: its segments, grouped per task in candidate order.
+    // Buffers only grow: the candidate count changes from step to step, and a task's buffers
+    // dropped now would be allocated again the next time.
     let tasks = candidates.len().div_ceil(EDGES_PER_TASK);
-    walks.resize_with(tasks, Default::default);
+    if walks.len() < tasks {
+        walks.resize_with(tasks, Default::default);
+        scans.resize_with(tasks, Scratch::default);
+    }
     walks[..tasks].par_iter_mut().zip(candidates.par_chunks(EDGES_PER_TASK)).for_each(|((segments, ends), chunk)| {
         segments.clear();
         ends.clear();
@@ -414,7 +419,6 @@ pub fn edge_grad(
     let bins = &cell_bins.bins;
     results.clear();
     results.resize(candidates.len(), (EdgeGrad::default(), BackwardStats::default()));
-    scans.resize_with(tasks, Scratch::default);
     results
         .par_chunks_mut(EDGES_PER_TASK)
         .zip(candidates.par_chunks(EDGES_PER_TASK))
