@@ -375,20 +375,31 @@ pub struct CellBins {
     pub bins: Bins,
     /// `(list, triangle)` pairs of each parallel task.
     pairs: Vec<Vec<(u32, u32)>>,
-    /// Write positions of the counting sort, one per list.
+    /// Write positions of the counting sort, one per list: the next entry of a triangle of
+    /// positive area (filled from the front).
     cursor: Vec<u32>,
+    /// One past the last free entry of each list, for the other triangles (filled from the back).
+    back: Vec<u32>,
 }
 
 /// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]): cell
 /// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `out.bins.tile(slots[t])`
-/// (`0..lists`), which holds the same triangles as [`bin`]'s list, in triangle order. Used by the
+/// (`0..lists`), which holds the same triangles as [`bin`]'s list: first those of positive
+/// on-screen area in triangle order, then the others in reverse triangle order. Used by the
 /// CPU backward, which needs lists only where silhouette segments with a non-zero incoming
 /// gradient lie. `out`'s buffers are refilled (allocated only where they must grow).
+///
+/// Why that order: a segment's scan stops as soon as its occluders cover it (most segments of a
+/// body are hidden), and the triangles of one orientation alone cover every point that the others
+/// do, away from the mesh's boundary (the identity behind [`BackFaceSkip`](super::coverage::BackFaceSkip)).
+/// A hidden segment's cover is then found among the first half of its list. The order changes
+/// no result: a scan's intervals are kept sorted, and its early stop needs only the whole
+/// segment covered.
 ///
 /// Reads the triangles' snapped boxes (`boxes`, one per triangle, as [`snapped_boxes`] gives them
 /// and the CPU `coverage` pass writes them) rather than their snapped vertices: one pass, no
 /// gather, in parallel over runs of consecutive triangles (each gives its `(list, triangle)`
-/// pairs in triangle order); then one counting sort by list, in triangle order within a list.
+/// pairs in triangle order); then one counting sort by list, filling each list from both ends.
 #[allow(clippy::too_many_arguments)]
 pub fn bin_tiles(
     params: &RasterParams,
@@ -401,7 +412,7 @@ pub fn bin_tiles(
     out: &mut CellBins,
 ) {
     let range = TileRange::of_grid(params, grid);
-    let CellBins { bins, pairs, cursor } = out;
+    let CellBins { bins, pairs, cursor, back } = out;
     bins.offsets.clear();
     bins.offsets.resize(lists + 1, 0);
     bins.triangles.clear();
@@ -429,15 +440,31 @@ pub fn bin_tiles(
     let entries = bins.offsets[lists] as usize;
     cursor.clear();
     cursor.extend_from_slice(&bins.offsets[..lists]);
+    back.clear();
+    back.extend_from_slice(&bins.offsets[1..]);
     bins.triangles.resize(entries, 0);
     bins.boxes.resize(entries, [0.0; 4]);
     bins.vertices.resize(entries, [[0.0; 2]; 3]);
     for &(slot, t) in parts.iter().flatten() {
-        let c = &mut cursor[slot as usize];
-        (bins.boxes[*c as usize], bins.vertices[*c as usize]) = float_box(screen, triangles[t as usize]);
-        bins.triangles[*c as usize] = t;
-        *c += 1;
+        let (bbox, v) = float_box(screen, triangles[t as usize]);
+        let at = if positive_area(v) {
+            let c = &mut cursor[slot as usize];
+            *c += 1;
+            *c - 1
+        } else {
+            let c = &mut back[slot as usize];
+            *c -= 1;
+            *c
+        } as usize;
+        (bins.boxes[at], bins.vertices[at], bins.triangles[at]) = (bbox, v, t);
     }
+}
+
+/// Whether a triangle's on-screen vertices run with positive area (`cross(b − a, c − a) > 0`).
+#[inline]
+fn positive_area(v: [[f32; 2]; 3]) -> bool {
+    let p = v.map(|p| [p[0] as f64, p[1] as f64]);
+    (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) > (p[1][1] - p[0][1]) * (p[2][0] - p[0][0])
 }
 
 #[cfg(test)]
@@ -537,9 +564,14 @@ mod tests {
             let boxes = snapped_boxes(&snapped, &triangles);
             bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len(), &mut lists);
             for (slot, &t) in wanted.iter().enumerate() {
+                // The same entries; the positive triangles first in triangle order, then the
+                // others in reverse order.
                 let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
+                let (mut positive, mut other): (Vec<_>, Vec<_>) = a.into_iter().partition(|e| positive_area(e.2));
+                other.reverse();
+                positive.extend(other);
                 let b: Vec<_> = lists.bins.tile(slot).map(|(i, b, v)| (i, *b, *v)).collect();
-                assert_eq!(a, b, "tile {t}");
+                assert_eq!(positive, b, "tile {t}");
             }
         }
     }
