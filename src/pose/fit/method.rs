@@ -70,7 +70,8 @@ pub struct FitOptions {
     /// [`FitOptions::OUTLINE_RATE`].
     pub outline_rate: f32,
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
-    /// mirrored front to back, the legs exchanged, each candidate and the pose refined this many
+    /// mirrored front to back (an arm near the body's plane also swung forward and back), the
+    /// legs exchanged, each candidate and the pose refined this many
     /// steps, a candidate kept only where the energy ends lower); 0: no swap test. Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
     pub swap_steps: u32,

@@ -92,7 +92,10 @@
 //!    the mistakes descent cannot undo are tried as discrete candidates on the final pose
 //!    ([`limb_swaps`]): each leg and each arm mirrored front to back in the body's coronal plane
 //!    (its joints' rotations reflected, `T → M T M`), both legs mirrored, and the legs
-//!    exchanged. The six candidates and the pose itself take 10 unblurred steps in one batch per
+//!    exchanged; an arm within 15° of the coronal plane, which nearly mirrors onto itself, is
+//!    also swung 40° forward and 40° back (an arm fitted alongside the torso where the target's
+//!    reaches forward is hidden in the side views and gets no gradient to come out). The six to
+//!    ten candidates and the pose itself take 10 unblurred steps in one batch per
 //!    step, and a candidate replaces the pose only where its energy then ends lower. Refining
 //!    only the two candidates lowest as they are cost about as much (their energies have to be
 //!    taken first) and lost swaps that the full test found (see the README).

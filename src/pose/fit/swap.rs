@@ -1,13 +1,15 @@
 //! The limb swap test on a final pose ([`PoseFit::swap_limbs`]): the discrete mistakes descent
-//! cannot undo (a limb on the wrong side of the body's coronal plane, the legs holding each
-//! other's places) are tried as candidates, refined a few steps beside the pose itself, and kept
-//! only where the energy ends lower.
+//! cannot undo (a limb on the wrong side of the body's coronal plane, an arm left in that plane
+//! behind the torso where it should reach forward or back, the legs holding each other's places)
+//! are tried as candidates, refined a few steps beside the pose itself, and kept only where the
+//! energy ends lower.
 //!
 //! A candidate changes a limb's rotations, not its vertices: each joint `k` of the limb has a
 //! world rotation `Q_k` at the pose and `Q⁰_k` at rest, so the limb part moved by
 //! `T_k = Q_k Q⁰_kᵀ`. Mirroring the limb in a plane with unit normal `n` (reflection
 //! `M = I − 2nnᵀ`) replaces every `T_k` of the limb by `M T_k M` (a proper rotation); exchanging
-//! two limbs gives each one the other's `T`, mirrored in the sagittal plane. The new joint offsets
+//! two limbs gives each one the other's `T`, mirrored in the sagittal plane; swinging a limb by a
+//! rotation `S` about an axis through its first joint replaces every `T_k` by `S T_k`. The new joint offsets
 //! follow from `R(θ'_k) = Q⁰_kᵀ T'_pᵀ T'_k Q⁰_k` (`p` the parent), which gives back `θ_k` where
 //! nothing changed.
 
@@ -19,6 +21,13 @@ use crate::pose::fit::poses::{mirrored_pairs, shoulder};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::Result;
 
+/// Largest reach of an arm off the body's coronal plane, as a fraction of its length, for which
+/// [`limb_swaps`] swings it instead of mirroring it (sin 15°).
+const IN_PLANE: f32 = 0.26;
+
+/// Angle of a [`LimbSwap::Swing`], radians (40°).
+const SWING_ANGLE: f32 = 0.7;
+
 /// One discrete change [`PoseFit::swap_limbs`] tries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LimbSwap {
@@ -27,6 +36,10 @@ pub enum LimbSwap {
     Mirror(usize),
     /// Both legs mirrored front to back.
     MirrorLegs,
+    /// The arm starting at this joint swung forward (`true`) or back by 40° about the axis
+    /// through the joint across the arm in the coronal plane (its far end moves forward or
+    /// back): extra candidates for an arm that lies within 15° of that plane.
+    Swing(usize, bool),
     /// The legs exchanged: each takes the other's rotations, mirrored left to right.
     ExchangeLegs,
 }
@@ -93,7 +106,11 @@ impl PoseFit {
 }
 
 /// The candidates of the swap test at `pose`: each leg and each arm mirrored front to back (the
-/// arms from the shoulder, past a collar bone), both legs mirrored, and the legs exchanged. The
+/// arms from the shoulder, past a collar bone), both legs mirrored, and the legs exchanged. An
+/// arm that reaches at most 15° off the coronal plane nearly mirrors onto itself; it is also
+/// swung 40° forward and 40° back ([`LimbSwap::Swing`]), about the axis across it in that plane
+/// (an arm fitted alongside the torso, hidden behind it in the side views, where the target's
+/// reaches forward, gets no silhouette gradient to bring it out). The
 /// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses);
 /// the coronal plane is spanned by the line through the hips and the line from the hips' to the
 /// shoulders' midpoint (the pose's vertical axis when there are no arms). Only the limbs' joint
@@ -138,8 +155,39 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
     if let Some((a, b)) = arms {
         limbs.extend([a, b]);
     }
-    for &limb in &limbs {
+    // How far a limb reaches off the coronal plane, as a fraction of its length, and the offset
+    // of its far end (the joint of its subtree farthest from its first joint).
+    let reach = |limb: usize| {
+        let (mut reach, mut tip) = (0.0f32, Vec3::ZERO);
+        for k in subtree(parents, limb) {
+            let offset = at(k) - at(limb);
+            reach = reach.max(offset.dot(forward).abs());
+            if offset.length() > tip.length() {
+                tip = offset;
+            }
+        }
+        (reach / tip.length().max(f32::MIN_POSITIVE), tip)
+    };
+    for (i, &limb) in limbs.iter().enumerate() {
+        let is_arm = i >= 2;
+        let (off_plane, tip) = reach(limb);
+        // An arm near the coronal plane mirrors nearly onto itself: it is swung as well, about the
+        // axis across it in that plane (a turn by +angle about `tip × forward` takes `tip` towards
+        // `forward`), whether it hangs or is raised sideways.
         swaps.push((LimbSwap::Mirror(limb), mirror(&[limb])));
+        let axis = tip.cross(forward).normalize_or_zero();
+        if is_arm && off_plane <= IN_PLANE && axis != Vec3::ZERO {
+            for forward_swing in [true, false] {
+                let angle = if forward_swing { SWING_ANGLE } else { -SWING_ANGLE };
+                let turn = Mat3::from_axis_angle(axis, angle);
+                let (mut t, mut changed) = (moved.clone(), vec![false; n]);
+                for k in subtree(parents, limb) {
+                    t[k] = turn * moved[k];
+                    changed[k] = true;
+                }
+                swaps.push((LimbSwap::Swing(limb, forward_swing), (t, changed)));
+            }
+        }
     }
     swaps.push((LimbSwap::MirrorLegs, mirror(&[left_leg, right_leg])));
     if let Some(pairs) = matched_subtrees(parents, left_leg, right_leg) {

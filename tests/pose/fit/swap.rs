@@ -179,9 +179,107 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     })
     .unwrap();
     let swap = with.swap.expect("the swap test ran");
-    assert_eq!(swap.candidates.len(), 6);
+    // Six, and a forward and a back swing for each arm left near the body's plane.
+    let swings = swap.candidates.iter().filter(|(k, _)| matches!(k, LimbSwap::Swing(..))).count();
+    assert_eq!(swap.candidates.len(), 6 + swings, "{swap:?}");
+    assert!(swings % 2 == 0 && swings <= 4, "{swap:?}");
     let options = FitOptions { swap_steps: 0, ..options };
     let without =
         fit(model, cameras, targets, renderer(), &options, |_, _| std::ops::ControlFlow::Continue(())).unwrap();
     assert!(without.swap.is_none());
+}
+
+/// The arms' first joints that `limb_swaps` swings at `pose` (arms near the coronal plane).
+fn swung(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
+    let mut arms: Vec<usize> = limb_swaps(model, pose)
+        .unwrap()
+        .into_iter()
+        .filter_map(|(k, _)| match k {
+            LimbSwap::Swing(j, _) => Some(j),
+            _ => None,
+        })
+        .collect();
+    arms.dedup();
+    arms
+}
+
+#[test]
+fn an_arm_in_the_coronal_plane_is_also_swung_forward_and_back() {
+    let model = builtin_figure();
+    let mut pose = Pose::rest(model.joint_count());
+    pose.orientation = Vec3::new(0.0, 0.3, 0.0);
+    let kinds: Vec<LimbSwap> = limb_swaps(&model, &pose).unwrap().into_iter().map(|(k, _)| k).collect();
+    // At rest both arms hang in the coronal plane: two swings each besides the mirror.
+    let arms = swung(&model, &pose);
+    assert_eq!(arms.len(), 2, "{kinds:?}");
+    assert_eq!(kinds.len(), 4 + 4 + 2, "{kinds:?}");
+    for &arm in &arms {
+        assert!(kinds.contains(&LimbSwap::Mirror(arm)), "{kinds:?}");
+    }
+    // Swung 22° (the striding pose), they are mirrored only.
+    let (model_striding, striding_pose) = striding();
+    assert!(swung(&model_striding, &striding_pose).is_empty());
+    let world = model.joint_transforms(&pose).unwrap();
+    let at = |g: &[glam::Mat4], j: usize| g[j].w_axis.truncate();
+    let legs = limbs(&model, &pose);
+    let lateral = at(&world, legs[0]) - at(&world, legs[1]);
+    let mid = |g: &[glam::Mat4], a: usize, b: usize| 0.5 * (at(g, a) + at(g, b));
+    let forward = lateral.cross(mid(&world, arms[0], arms[1]) - mid(&world, legs[0], legs[1])).normalize();
+    let arm = arms[0];
+    // The arm's far end: its joint farthest from the shoulder.
+    let below: Vec<usize> = (0..model.joint_count())
+        .filter(|&j| {
+            let mut k = Some(j);
+            while let Some(x) = k {
+                if x == arm {
+                    return true;
+                }
+                k = model.skeleton.parents[x];
+            }
+            false
+        })
+        .collect();
+    let tip = *below
+        .iter()
+        .max_by(|&&a, &&b| {
+            let d = |j: usize| (at(&world, j) - at(&world, arm)).length();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let before = at(&world, tip) - at(&world, arm);
+    for (forward_swing, sign) in [(true, 1.0f32), (false, -1.0)] {
+        let after_pose = candidate(&model, &pose, LimbSwap::Swing(arm, forward_swing));
+        let after = model.joint_transforms(&after_pose).unwrap();
+        let offset = at(&after, tip) - at(&after, arm);
+        // Turned rigidly by 40° about the lateral axis through the shoulder, its far end forward
+        // (or back).
+        assert!((offset.length() - before.length()).abs() < 1e-4 * before.length());
+        let angle = (offset.dot(before) / (offset.length() * before.length())).clamp(-1.0, 1.0).acos();
+        assert!((angle - 0.7).abs() < 1e-3, "turned by {angle} rad");
+        assert!(sign * offset.dot(forward) > 0.5 * before.length(), "{forward_swing}: {offset} vs forward {forward}");
+        // In the plane of the arm and the forward axis.
+        let normal = before.cross(forward).normalize();
+        assert!(offset.dot(normal).abs() < 1e-3 * before.length(), "{offset} off the swing's plane");
+        // Nothing else moved.
+        for j in (0..model.joint_count()).filter(|j| !below.contains(j)) {
+            assert!((at(&after, j) - at(&world, j)).length() < 1e-5, "joint {j} moved");
+        }
+    }
+}
+
+#[test]
+fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
+    let model = builtin_figure();
+    let start = Pose::rest(model.joint_count());
+    let [arm, _] = swung(&model, &start)[..] else { panic!("no arms swung") };
+    let truth = candidate(&model, &start, LimbSwap::Swing(arm, true));
+    let (cameras, targets) = views(&model, &truth, 48);
+    let truth_vertices = model.skin(&truth).unwrap();
+    let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
+    let mut fit = fit_from(&model, &start, cameras, targets);
+    fit.set_learning_rate(0.002).unwrap();
+    let report = fit.swap_limbs(4).unwrap();
+    assert_eq!(report.kept, Some(LimbSwap::Swing(arm, true)), "{report:?}");
+    let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
+    assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
 }
