@@ -22,7 +22,7 @@ use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::Result;
 
 /// Largest reach of an arm off the body's coronal plane, as a fraction of its length, for which
-/// [`limb_swaps`] swings it instead of mirroring it (sin 15°).
+/// [`limb_swaps`] swings it besides mirroring it (sin 15°).
 const IN_PLANE: f32 = 0.26;
 
 /// Angle of a [`LimbSwap::Swing`], radians (40°).
@@ -171,10 +171,10 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
     for (i, &limb) in limbs.iter().enumerate() {
         let is_arm = i >= 2;
         let (off_plane, tip) = reach(limb);
+        swaps.push((LimbSwap::Mirror(limb), mirror(&[limb])));
         // An arm near the coronal plane mirrors nearly onto itself: it is swung as well, about the
         // axis across it in that plane (a turn by +angle about `tip × forward` takes `tip` towards
         // `forward`), whether it hangs or is raised sideways.
-        swaps.push((LimbSwap::Mirror(limb), mirror(&[limb])));
         let axis = tip.cross(forward).normalize_or_zero();
         if is_arm && off_plane <= IN_PLANE && axis != Vec3::ZERO {
             for forward_swing in [true, false] {
