@@ -1,0 +1,220 @@
+//! Tests of [`edge_grad`](super::edge_grad) against the stage as first written.
+
+use super::*;
+use crate::cpu::bin;
+
+/// The stage as first written: full bins, every listed triangle tested in f64, no early exit.
+#[allow(clippy::too_many_arguments)]
+fn reference_gradient(
+    params: &RasterParams,
+    screen: &[ScreenVertex],
+    triangles: &[[u32; 3]],
+    bins: &Bins,
+    d_image: &[f32],
+    edge: [u32; 2],
+    inside: i32,
+    rank: u32,
+) -> (EdgeGrad, BackwardStats) {
+    let mut stats = BackwardStats::default();
+    let Some((va, vb, outward)) = edge_geometry(screen, edge, inside) else {
+        return (EdgeGrad::default(), stats);
+    };
+    let d = vb - va;
+    let (mut wa, mut wb) = (0.0f64, 0.0f64);
+    let mut segments = Vec::new();
+    let mut s = (0.0, 1.0);
+    if !(clip_parameter(va.x, d.x, 0.0, params.width as f64, &mut s)
+        && clip_parameter(va.y, d.y, 0.0, params.height as f64, &mut s))
+    {
+        return (EdgeGrad::default(), stats);
+    }
+    let (y0, y1) = (va.y + s.0 * d.y, va.y + s.1 * d.y);
+    for i in (y0.min(y1).ceil() as i64 - 1).max(0)..=(y0.max(y1).floor() as i64).min(params.height as i64 - 1) {
+        let mut r = s;
+        if !clip_parameter(va.y, d.y, i as f64, i as f64 + 1.0, &mut r) {
+            continue;
+        }
+        let (x0, x1) = (va.x + r.0 * d.x, va.x + r.1 * d.x);
+        for j in (x0.min(x1).ceil() as i64 - 1).max(0)..=(x0.max(x1).floor() as i64).min(params.width as i64 - 1) {
+            let mut c = r;
+            if clip_parameter(va.x, d.x, j as f64, j as f64 + 1.0, &mut c) && c.1 > c.0 {
+                let on_border = (d.y == 0.0 && (va.y == i as f64 || va.y == i as f64 + 1.0))
+                    || (d.x == 0.0 && (va.x == j as f64 || va.x == j as f64 + 1.0));
+                segments.push((i, j, c, on_border));
+            }
+        }
+    }
+    let scale = (params.inside - params.outside) as f64;
+    for (i, j, c, on_border) in segments {
+        let g =
+            d_image[i as usize * params.width as usize + j as usize] as f64 * scale * if on_border { 0.5 } else { 1.0 };
+        if g == 0.0 {
+            continue;
+        }
+        stats.segments += 1;
+        let (lo, hi) = (va + c.0 * d, va + c.1 * d);
+        let (lo, hi) = (lo.min(hi), lo.max(hi));
+        let mut found = Vec::new();
+        let tile = (i as u32 / params.tile_size) * params.tiles_x + j as u32 / params.tile_size;
+        for (t, b, _) in bins.tile(tile as usize) {
+            let b = [b[0], b[1], -b[2], -b[3]].map(|x| x as f64);
+            if b[0] > hi.x || b[1] > hi.y || b[2] < lo.x || b[3] < lo.y {
+                continue;
+            }
+            let q = triangles[t as usize].map(|v| position(screen, v));
+            found.extend(occluded_interval(q, va, vb, outward, c, t < rank));
+        }
+        found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let (mut visible_a, mut visible_b, mut cursor) = (0.0, 0.0, c.0);
+        for &(lo, hi) in found.iter().chain(std::iter::once(&(c.1, c.1))) {
+            if lo > cursor {
+                let [ka, kb] = segment_weights(cursor, lo);
+                visible_a += ka;
+                visible_b += kb;
+            }
+            cursor = cursor.max(hi);
+        }
+        if visible_a != 0.0 || visible_b != 0.0 {
+            stats.visible_segments += 1;
+        }
+        wa += g * visible_a;
+        wb += g * visible_b;
+    }
+    let (ga, gb) = (outward * wa, outward * wb);
+    (EdgeGrad { a: [ga.x as f32, ga.y as f32], b: [gb.x as f32, gb.y as f32] }, stats)
+}
+
+/// Runs the stage on a scene and asserts that every slot and the statistics are the
+/// reference's; returns the statistics.
+fn compare_with_reference(
+    params: &RasterParams,
+    grid: CellGrid,
+    screen: &[ScreenVertex],
+    topology: &Topology,
+    d_image: &[f32],
+    what: &str,
+) -> BackwardStats {
+    let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+    let mut orientation = vec![0i8; topology.triangles().len()];
+    edges::face_orientations(screen, topology.triangles(), &mut orientation);
+    let mut candidates = Vec::new();
+    edges::edges(&orientation, topology, &mut candidates);
+    let mut slots = Vec::new();
+    let boxes = bin::snapped_boxes(&snapped, topology.triangles());
+    let mut scratch = EdgeGradScratch::default();
+    let stats = edge_grad(params, grid, screen, &boxes, topology, &candidates, d_image, &mut slots, &mut scratch);
+    let mut full = Bins::default();
+    bin::bin(params, screen, &snapped, topology.triangles(), &mut full);
+    let mut expected = BackwardStats::default();
+    for (&(e, side), slot) in candidates.iter().zip(&slots) {
+        let edge = topology.edges()[e as usize];
+        let rank = coincident_rank(screen, topology, e);
+        let (grad, s) = reference_gradient(params, screen, topology.triangles(), &full, d_image, edge, side, rank);
+        assert_eq!(grad, *slot, "{what} edge {e}");
+        expected = expected + s;
+    }
+    assert_eq!(stats, expected, "{what}");
+    stats
+}
+
+/// Lists longer than a scan block ([`SCAN_BLOCK`]): two dense overlapping spheres in a small
+/// image, listed per tile, so that a segment's occluders sit in every block of its list and at
+/// the block ends, and each sphere hides part of the other's outline; the stage must give the
+/// reference's bits.
+#[test]
+fn long_lists_same_bits_as_the_reference() {
+    let sphere = crate::scene::shapes::icosphere(4);
+    let n = sphere.positions().len() as u32;
+    let pair = crate::scene::mesh::Mesh::new(
+        sphere
+            .positions()
+            .iter()
+            .copied()
+            .chain(sphere.positions().iter().map(|p| *p * 0.8 + glam::Vec3::new(0.7, 0.4, 0.5)))
+            .collect(),
+        sphere.triangles().iter().copied().chain(sphere.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
+    )
+    .unwrap();
+    let (w, h) = (12, 10);
+    let mut params = RasterParams::new(w, h, 4, 1.0, 0.0).unwrap();
+    params.set_tile_size(4);
+    let screen: Vec<ScreenVertex> = pair
+        .positions()
+        .iter()
+        .map(|p| {
+            let (x, y) = (p.x as f64 + 0.2 * p.z as f64, p.y as f64 - 0.3 * p.z as f64);
+            let q = [w as f64 * (0.35 + 0.3 * x), h as f64 * (0.4 + 0.3 * y)];
+            ScreenVertex { position: q.map(|c| c as f32), valid: 1, pad: 0 }
+        })
+        .collect();
+    let d_image: Vec<f32> = (0..params.pixel_count()).map(|k| 0.25 + (k % 7) as f32 * 0.1).collect();
+    let grid = CellGrid::tiles(&params);
+    let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+    let mut full = Bins::default();
+    bin::bin(&params, &screen, &snapped, pair.triangles(), &mut full);
+    let longest = (0..params.tiles_x * params.tiles_y).map(|t| full.tile(t as usize).count()).max().unwrap();
+    assert!(longest > 4 * SCAN_BLOCK, "lists of at most {longest} entries do not span several blocks");
+    let stats = compare_with_reference(&params, grid, &screen, pair.topology(), &d_image, "two dense spheres");
+    assert!(stats.segments > stats.visible_segments, "no hidden segment: {stats:?}");
+    assert!(stats.visible_segments > 0, "no visible segment: {stats:?}");
+}
+
+/// The stage (lazy lists, f32 box test, gathered hits, early exit on hidden segments) gives the
+/// reference's bits, on random folded meshes with overlaps, ties on pixel borders, coincident
+/// edges (a mesh with a copy of itself) and a sparse `∂L/∂I`.
+#[test]
+fn same_bits_as_the_reference() {
+    let mut seed = 0x6a09_e667_f3bc_c908u64;
+    let mut rand = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let single = crate::scene::shapes::icosphere(2);
+    // The sphere and an exact copy of it: every silhouette edge coincides with its copy's.
+    let n = single.positions().len() as u32;
+    let doubled = crate::scene::mesh::Mesh::new(
+        single.positions().iter().chain(single.positions()).copied().collect(),
+        single.triangles().iter().copied().chain(single.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
+    )
+    .unwrap();
+    let mut hidden = 0;
+    for case in 0..40 {
+        let (w, h) = (20 + case % 7, 16 + case % 5);
+        let mut params = RasterParams::new(w, h, 4, 1.0, 0.0).unwrap();
+        params.set_tile_size([1, 2, 4][case as usize % 3]);
+        let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0];
+        let topology = if case % 3 == 1 { doubled.topology() } else { single.topology() };
+        let mut screen: Vec<ScreenVertex> = single
+            .positions()
+            .iter()
+            .map(|p| {
+                let (x, y) = (p.x as f64, p.y as f64 + 0.3 * p.z as f64);
+                let mut q = [
+                    w as f64 * (0.5 + 0.45 * (m[0] * x + m[1] * y)) + 0.3 * (rand() - 0.5),
+                    h as f64 * (0.5 + 0.45 * (m[2] * x + m[3] * y)) + 0.3 * (rand() - 0.5),
+                ];
+                if case % 4 == 0 {
+                    q = q.map(|c| (c * 2.0).round() / 2.0); // on pixel borders and centres
+                }
+                ScreenVertex { position: q.map(|c| c as f32), valid: 1, pad: 0 }
+            })
+            .collect();
+        if case % 3 == 1 {
+            screen.extend_from_within(..);
+        }
+        let d_image: Vec<f32> =
+            (0..params.pixel_count()).map(|_| if rand() < 0.3 { 0.0 } else { (rand() * 2.0 - 1.0) as f32 }).collect();
+        // Occluders listed per tile, and per cell of finer grids (one not a power of two).
+        let grid = match case % 4 {
+            0 => CellGrid::tiles(&params),
+            1 => CellGrid::new(&params, params.units / 4),
+            2 => CellGrid::new(&params, params.units / 16),
+            _ => CellGrid::new(&params, 3 * params.units / 5),
+        };
+        let stats = compare_with_reference(&params, grid, &screen, topology, &d_image, &format!("case {case}"));
+        hidden += stats.segments - stats.visible_segments;
+    }
+    assert!(hidden > 100, "too few hidden segments ({hidden}) to test the early exit");
+}
