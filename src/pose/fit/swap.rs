@@ -157,9 +157,9 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
     }
     // How far a limb reaches off the coronal plane, as a fraction of its length, and the offset
     // of its far end (the joint of its subtree farthest from its first joint).
-    let reach = |limb: usize| {
+    let reach = |limb: usize, joints: &[usize]| {
         let (mut reach, mut tip) = (0.0f32, Vec3::ZERO);
-        for k in subtree(parents, limb) {
+        for &k in joints {
             let offset = at(k) - at(limb);
             reach = reach.max(offset.dot(forward).abs());
             if offset.length() > tip.length() {
@@ -170,7 +170,8 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
     };
     for (i, &limb) in limbs.iter().enumerate() {
         let is_arm = i >= 2;
-        let (off_plane, tip) = reach(limb);
+        let joints = subtree(parents, limb);
+        let (off_plane, tip) = reach(limb, &joints);
         swaps.push((LimbSwap::Mirror(limb), mirror(&[limb])));
         // An arm near the coronal plane mirrors nearly onto itself: it is swung as well, about the
         // axis across it in that plane (a turn by +angle about `tip × forward` takes `tip` towards
@@ -181,7 +182,7 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
                 let angle = if forward_swing { SWING_ANGLE } else { -SWING_ANGLE };
                 let turn = Mat3::from_axis_angle(axis, angle);
                 let (mut t, mut changed) = (moved.clone(), vec![false; n]);
-                for k in subtree(parents, limb) {
+                for &k in &joints {
                     t[k] = turn * moved[k];
                     changed[k] = true;
                 }

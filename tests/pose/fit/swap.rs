@@ -251,8 +251,8 @@ fn an_arm_in_the_coronal_plane_is_also_swung_forward_and_back() {
         let after_pose = candidate(&model, &pose, LimbSwap::Swing(arm, forward_swing));
         let after = model.joint_transforms(&after_pose).unwrap();
         let offset = at(&after, tip) - at(&after, arm);
-        // Turned rigidly by 40° about the lateral axis through the shoulder, its far end forward
-        // (or back).
+        // Turned rigidly by 40° about an axis through the shoulder, its far end forward (or
+        // back).
         assert!((offset.length() - before.length()).abs() < 1e-4 * before.length());
         let angle = (offset.dot(before) / (offset.length() * before.length())).clamp(-1.0, 1.0).acos();
         assert!((angle - 0.7).abs() < 1e-3, "turned by {angle} rad");
