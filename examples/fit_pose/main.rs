@@ -36,7 +36,7 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Stop,
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Schedule, Stop,
     RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
@@ -65,10 +65,11 @@ enum Layout {
 Method (diffsil::pose::fit::fit, FitOptions::default()): E = E_sl + λ·E_spt + μ·E_prior, where
 E_sl is the mean squared error over all pixels of all views between the rendered and target
 silhouettes, both blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on
-the joint offsets. Each of the three starting poses (rest, legs striding each way) runs 1/10 of
-the steps with a blur of 6% of the image height; the one with the lowest unblurred energy E
-continues: 1/20 of the steps at 6%, 1/12 at 3%, the rest (170 of 300) unblurred, ending early
-after 30 steps without a 1% lower energy. Then the swap test: each leg and arm mirrored front to
+the joint offsets, μ = 2e-3 unblurred and 10 times that while blurred. Each of the three
+starting poses (rest, legs striding each way) runs 1/10 of the steps with a blur of 6% of the
+image height; the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%,
+1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
+steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
 back, both legs mirrored and the legs exchanged, each refined 10 steps beside the pose and kept
 where the energy ends lower (--swap-steps). Same method and settings at every resolution and F."
 )]
@@ -118,9 +119,13 @@ pub struct Options {
     /// Arm swing (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0", value_parser = finite)]
     arm_swing: f32,
-    /// Weight μ of the pose prior μ·mean_j |θ_j|² [default: PoseFit::POSE_PRIOR = 1e-3]
+    /// Weight μ of the pose prior μ·mean_j |θ_j|² in the unblurred stage [default: PoseFit::POSE_PRIOR = 2e-3]
     #[arg(long, value_name = "X", default_value_t = PoseFit::POSE_PRIOR, hide_default_value = true, value_parser = finite)]
     prior: f32,
+    /// The pose prior's weight in the blurred stages, as a multiple of μ (1: μ throughout)
+    /// [default: Schedule::COARSE_PRIOR_SCALE = 10]
+    #[arg(long, value_name = "X", default_value_t = Schedule::COARSE_PRIOR_SCALE, hide_default_value = true, value_parser = finite)]
+    coarse_prior_scale: f32,
     /// Run every step: no early stop on convergence
     #[arg(long)]
     no_early_stop: bool,
@@ -179,6 +184,9 @@ pub struct Options {
     /// this many
     #[arg(long, value_name = "N", default_value_t = 12)]
     frames: usize,
+    /// Fit only this frame of `--motion` (0-based, of the `--frames`), verbose, with pictures
+    #[arg(long, value_name = "K", requires = "motion")]
+    frame: Option<usize>,
     /// Your own masks, one PNG per camera of `--cameras` in the same order, comma-separated
     /// (white = the body); fits `--model` to them instead of to a random pose's silhouettes
     /// (`--resolution`, `--views`, `--view-count` and `--seed` then do not apply)
@@ -250,6 +258,7 @@ fn fit_options(o: &Options) -> FitOptions {
         lambda: o.lambda,
         intersection_interval: o.intersection_interval.unwrap_or(defaults.intersection_interval),
         pose_prior: o.prior,
+        coarse_prior_scale: o.coarse_prior_scale,
         leg_stride: o.stride,
         arm_swing: o.arm_swing,
         convergence: if o.no_early_stop { None } else { Some(Convergence::default()) },
@@ -612,6 +621,19 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(clip) = &o.motion {
         let poses = motion_frames(o, clip)?;
+        if let Some(k) = o.frame {
+            let (time, pose) =
+                poses.get(k).cloned().ok_or_else(|| format!("--frame {k}: the clip gives {} frames", poses.len()))?;
+            println!("{name}: clip {clip}, frame {k} (t = {time:.3} s)");
+            let outcome = fit_seed(&model, &Options { truth: Some(pose), ..o.clone() }, true, false)?;
+            println!(
+                "final: per_vertex_error_mm={:.2} iterations={} seconds={:.3}",
+                outcome.error_m * 1000.0,
+                outcome.steps,
+                outcome.seconds
+            );
+            return Ok(());
+        }
         let what = format!("clip {clip}, {} frames", poses.len());
         let cases = poses
             .into_iter()

@@ -219,6 +219,9 @@ fn bad_user_data_are_clear_errors() {
     assert!(e.contains("--cameras"), "{e}");
     let e = example::Options::try_parse_from(["fit_pose", "--cameras", "c.json"]).unwrap_err().to_string();
     assert!(e.contains("--targets"), "{e}");
+    // One frame of a motion needs the motion.
+    let e = example::Options::try_parse_from(["fit_pose", "--frame", "3"]).unwrap_err().to_string();
+    assert!(e.contains("--motion"), "{e}");
 }
 
 #[test]

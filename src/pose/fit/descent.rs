@@ -109,6 +109,9 @@ pub struct PoseFit {
     pixel_weight: f64,
     /// Weight `μ` of the pose prior.
     pose_prior: f32,
+    /// Multiple of `μ` in force for the current stage of [`PoseFit::run`] (1 outside a run;
+    /// [`Stage::prior_scale`](super::Stage::prior_scale)).
+    prior_scale: f32,
     /// Weight `ν` of the shape prior.
     shape_prior: f32,
     /// How many of `params` are the pose's (`3J + 6`, or `6J + 6` with joint translations); the
@@ -154,9 +157,14 @@ impl Default for Free {
 }
 
 impl PoseFit {
-    /// The pose prior weight of the fitting method ([`PoseFit::set_pose_prior`]): about the
-    /// size of a converged fit's `E_sl` (~1e-4) for offsets of a third of a radian.
-    pub const POSE_PRIOR: f32 = 1e-3;
+    /// The pose prior weight of the fitting method ([`PoseFit::set_pose_prior`]) in its
+    /// unblurred stage: about the size of a converged fit's `E_sl` (~1e-4) for offsets of a
+    /// fifth of a radian. The blurred stages weigh it [`Schedule::COARSE_PRIOR_SCALE`] times
+    /// more ([`Stage::prior_scale`]).
+    ///
+    /// [`Schedule::COARSE_PRIOR_SCALE`]: super::Schedule::COARSE_PRIOR_SCALE
+    /// [`Stage::prior_scale`]: super::Stage::prior_scale
+    pub const POSE_PRIOR: f32 = 2e-3;
 
     /// The shape prior weight of the fitting method ([`PoseFit::set_shape_prior`]).
     pub const SHAPE_PRIOR: f32 = 1e-3;
@@ -232,6 +240,7 @@ impl PoseFit {
             blur: 0.0,
             pixel_weight: if pixels > 0.0 { 1.0 / pixels } else { 1.0 },
             pose_prior: 0.0,
+            prior_scale: 1.0,
             free: Free::default(),
             inflation: 0.0,
             inflation_adam: Adam::new(1.0),
@@ -429,7 +438,7 @@ impl PoseFit {
         let prior = self.prior_energy();
         Ok(silhouette * self.pixel_weight
             + f64::from(self.lambda) * surrogate
-            + f64::from(self.pose_prior) * prior
+            + f64::from(self.pose_prior_weight()) * prior
             + f64::from(self.shape_prior) * self.shape_energy())
     }
 
@@ -540,7 +549,7 @@ impl PoseFit {
             shape_prior,
             energy: silhouette
                 + f64::from(lambda) * surrogate
-                + f64::from(self.pose_prior) * prior
+                + f64::from(self.pose_prior_weight()) * prior
                 + f64::from(self.shape_prior) * shape_prior,
         })
     }
@@ -557,6 +566,7 @@ impl std::fmt::Debug for PoseFit {
             .field("learning_rate", &self.adam.learning_rate)
             .field("lambda", &self.lambda)
             .field("pose_prior", &self.pose_prior)
+            .field("prior_scale", &self.prior_scale)
             .field("blur", &self.blur)
             .field("inflation", &self.inflation)
             .field("inflation_rate", &self.inflation_rate)

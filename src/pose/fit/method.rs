@@ -22,8 +22,13 @@ pub struct FitOptions {
     /// steps in between reuse the last check's gradient). Default
     /// [`FitOptions::INTERSECTION_INTERVAL`].
     pub intersection_interval: u32,
-    /// Pose prior weight `μ`, ≥ 0. Default [`PoseFit::POSE_PRIOR`] (1e-3).
+    /// Pose prior weight `μ`, ≥ 0, of the unblurred stage and the swap test. Default
+    /// [`PoseFit::POSE_PRIOR`].
     pub pose_prior: f32,
+    /// The pose prior's weight in the blurred stages (the starting poses' included), as a
+    /// multiple of `pose_prior`, finite and ≥ 0 ([`Stage::prior_scale`]). Default
+    /// [`Schedule::COARSE_PRIOR_SCALE`].
+    pub coarse_prior_scale: f32,
     /// Leg stride of the extra starting poses, radians (0: none). Default 0.3
     /// ([`limb_swing_hypotheses`]).
     pub leg_stride: f32,
@@ -85,6 +90,7 @@ impl Default for FitOptions {
             lambda: 1e-7,
             intersection_interval: FitOptions::INTERSECTION_INTERVAL,
             pose_prior: PoseFit::POSE_PRIOR,
+            coarse_prior_scale: Schedule::COARSE_PRIOR_SCALE,
             leg_stride: 0.3,
             arm_swing: 0.0,
             coarse_blur: Schedule::COARSE_BLUR,
@@ -127,8 +133,9 @@ impl FitOptions {
     ///
     /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
     /// top of the initial pose (its joint offsets added to each), and the schedule is
-    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur`. Without blur: one
-    /// unblurred stage from the initial pose. Without `fit_pose`, the initial pose alone.
+    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur` and the blurred
+    /// stages' prior scale set to `coarse_prior_scale`. Without blur: one unblurred stage from
+    /// the initial pose. Without `fit_pose`, the initial pose alone.
     pub fn plan(&self, model: &SkinnedMesh) -> Result<(Schedule, Vec<Pose>)> {
         let initial = self.initial.clone().unwrap_or_else(|| Pose::rest(model.joint_count()));
         initial.validate(model.joint_count())?;
@@ -138,11 +145,17 @@ impl FitOptions {
                 self.coarse_blur
             )));
         }
+        if !(self.coarse_prior_scale.is_finite() && self.coarse_prior_scale >= 0.0) {
+            return Err(Error::InvalidSettings(format!(
+                "need a non-negative coarse prior scale, got {}",
+                self.coarse_prior_scale
+            )));
+        }
         if !(self.leg_stride.is_finite() && self.arm_swing.is_finite()) {
             return Err(Error::InvalidSettings("the leg stride and arm swing must be finite".into()));
         }
         if self.coarse_blur == 0.0 {
-            let stages = vec![Stage { blur: 0.0, steps: self.steps }];
+            let stages = vec![Stage::new(0.0, self.steps)];
             return Ok((Schedule { hypothesis_steps: 0, stages, convergence: self.convergence }, vec![initial]));
         }
         let hypotheses = if self.fit_pose {
@@ -161,6 +174,9 @@ impl FitOptions {
         let scale = self.coarse_blur / Schedule::COARSE_BLUR;
         for stage in &mut schedule.stages {
             stage.blur *= scale;
+            if stage.blur > 0.0 {
+                stage.prior_scale = self.coarse_prior_scale;
+            }
         }
         schedule.convergence = self.convergence;
         Ok((schedule, hypotheses))

@@ -51,7 +51,10 @@
 //! 3. **A pose prior.** `E` gains `μ·E_prior`, `E_prior` the mean squared joint offset
 //!    ([`PoseFit::set_pose_prior`], μ = [`PoseFit::POSE_PRIOR`]): a zero-mean Gaussian prior,
 //!    as the random poses are drawn around the rest pose. It holds the directions the silhouettes
-//!    do not see (twist) near rest instead of letting Adam's noise move them.
+//!    do not see (twist) near rest instead of letting Adam's noise move them. Like the blur it is
+//!    annealed ([`Stage::prior_scale`]): [`Schedule::COARSE_PRIOR_SCALE`] times stronger while
+//!    the silhouettes are blurred, so that the joints do not take up a turn of the whole body
+//!    before the global orientation has settled, then `μ` for the details.
 //! 4. **Mean, not sum.** `E_sl` is the mean over all pixels of all views, so its scale, and so
 //!    the meaning of `λ` and `μ`, does not depend on the resolution or the number of views
 //!    (Adam's steps do not depend on the scale of the loss, but the balance of the terms does).

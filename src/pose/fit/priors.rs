@@ -24,6 +24,23 @@ impl PoseFit {
         Ok(())
     }
 
+    /// The weight `μ` ([`PoseFit::set_pose_prior`]).
+    pub fn pose_prior(&self) -> f32 {
+        self.pose_prior
+    }
+
+    /// The pose prior's weight in force: `μ` times the current stage's
+    /// [`Stage::prior_scale`](super::Stage::prior_scale) during [`PoseFit::run`], `μ` outside it.
+    pub(super) fn pose_prior_weight(&self) -> f32 {
+        self.pose_prior * self.prior_scale
+    }
+
+    /// Sets the multiple of `μ` in force ([`PoseFit::run`] sets it per stage, and back to 1 at
+    /// its end).
+    pub(in crate::pose::fit) fn set_prior_scale(&mut self, scale: f32) {
+        self.prior_scale = scale;
+    }
+
     /// Weight `ν` of the shape prior: the energy gains `ν·E_shape` with
     /// `E_shape = (1/K) Σ_k β_k²` over the `K` morph targets, a zero-mean Gaussian prior on the
     /// shape (morph targets are authored so that ±1 is an extreme body). 0 unless set; the
@@ -51,9 +68,10 @@ impl PoseFit {
 
     /// Adds `μ·∂E_prior/∂θ = 2μ θ / J` to the joint offsets' entries of `grads`.
     pub(super) fn add_prior_gradient(&self, grads: &mut [f32]) {
-        if self.pose_prior > 0.0 {
+        let weight = self.pose_prior_weight();
+        if weight > 0.0 {
             let joints = self.model.joint_count();
-            let scale = 2.0 * self.pose_prior / joints as f32;
+            let scale = 2.0 * weight / joints as f32;
             for (g, &t) in grads.iter_mut().zip(&self.params[..3 * joints]) {
                 *g += scale * t;
             }

@@ -5,21 +5,32 @@ use std::ops::ControlFlow;
 
 use super::{PoseFit, StepReport};
 use crate::pose::skin::Pose;
-use crate::Result;
+use crate::{Error, Result};
 
 /// One stage of a [`Schedule`]: this many steps with the silhouettes blurred by a Gaussian of
-/// standard deviation `blur` × the image height.
+/// standard deviation `blur` × the image height, and the pose prior's weight `μ` multiplied by
+/// `prior_scale`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stage {
     /// Standard deviation of the blur, as a fraction of the image height (0: no blur).
     pub blur: f32,
     /// Adam steps.
     pub steps: u32,
+    /// The pose prior's weight during the stage, as a multiple of the fit's `μ`
+    /// ([`PoseFit::set_pose_prior`]), finite and ≥ 0; 1 keeps `μ`.
+    pub prior_scale: f32,
+}
+
+impl Stage {
+    /// `steps` steps at `blur`, with the fit's own pose prior weight (`prior_scale` 1).
+    pub fn new(blur: f32, steps: u32) -> Stage {
+        Stage { blur, steps, prior_scale: 1.0 }
+    }
 }
 
 /// A coarse-to-fine, multi-hypothesis schedule for [`PoseFit::run`]: every hypothesis runs
-/// `hypothesis_steps` steps with the blur of the first stage, the one with the lowest energy is
-/// kept, and it runs every stage in turn.
+/// `hypothesis_steps` steps with the blur and prior scale of the first stage, the one with the
+/// lowest energy is kept, and it runs every stage in turn.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Schedule {
     /// Steps each hypothesis gets before one is chosen.
@@ -80,11 +91,22 @@ impl Schedule {
     /// Blur of the coarsest stage: 6% of the image height (3.8 pixels at 64², 1.9 at 32²).
     pub const COARSE_BLUR: f32 = 0.06;
 
+    /// The pose prior's weight in the blurred stages, as a multiple of the fit's `μ`: 10.
+    ///
+    /// While the silhouettes are blurred they cannot place a limb's twist or tell which way
+    /// the body faces within a few tens of degrees, and a weak prior lets the joints take up
+    /// rotations that belong to the whole body (a walking figure fitted from its T-pose ended
+    /// turned 90° with its legs striding sideways). A prior ten times stronger keeps the joints
+    /// near the rest pose while the global orientation and the large limb motions settle; the
+    /// unblurred stage then fits the details with `μ` itself, as SMPLify anneals its prior.
+    pub const COARSE_PRIOR_SCALE: f32 = 10.0;
+
     /// The default schedule: `total_steps` Adam steps in all, shared by `hypotheses` starting
     /// poses. Each hypothesis gets a tenth of the steps at blur [`Schedule::COARSE_BLUR`]
     /// (fewer if there are more than five, so that half the steps are left); the chosen one
     /// continues with a twentieth of the steps at the same blur, a twelfth at half that blur,
     /// and the rest unblurred. For 300 steps and 3 hypotheses: 3 × 30, then 15, 25 and 170.
+    /// The blurred stages weigh the pose prior [`Schedule::COARSE_PRIOR_SCALE`] times more.
     /// Every resolution and supersampling gets the same schedule.
     pub fn coarse_to_fine(total_steps: u32, hypotheses: usize) -> Schedule {
         let hypotheses = hypotheses.max(1) as u32;
@@ -96,9 +118,9 @@ impl Schedule {
             convergence: None,
             hypothesis_steps,
             stages: vec![
-                Stage { blur: Self::COARSE_BLUR, steps: coarse },
-                Stage { blur: Self::COARSE_BLUR / 2.0, steps: middle },
-                Stage { blur: 0.0, steps: fine },
+                Stage { blur: Self::COARSE_BLUR, steps: coarse, prior_scale: Self::COARSE_PRIOR_SCALE },
+                Stage { blur: Self::COARSE_BLUR / 2.0, steps: middle, prior_scale: Self::COARSE_PRIOR_SCALE },
+                Stage::new(0.0, fine),
             ],
         }
     }
@@ -139,19 +161,25 @@ pub struct RunReport {
 
 impl PoseFit {
     /// Runs a whole fit: each of `hypotheses` (starting poses; the current pose when empty) for
-    /// `schedule.hypothesis_steps` steps at the first stage's blur, each from a fresh Adam, then
-    /// the one with the lowest energy ([`PoseFit::energy`]) through every stage of `schedule`,
-    /// keeping its Adam state; the last stage ends early when `schedule.convergence` says so.
-    /// Calls `on_step` after every step: [`ControlFlow::Break`] cancels the run, which then
-    /// ends where it is (the hypothesis being tried counts as the chosen one). Ends unblurred.
-    /// Errors (and stops) on the first step that errors.
+    /// `schedule.hypothesis_steps` steps at the first stage's blur and prior scale, each from a
+    /// fresh Adam, then the one with the lowest energy ([`PoseFit::energy`], with that prior
+    /// scale) through every stage of `schedule`, keeping its Adam state; the last stage ends
+    /// early when `schedule.convergence` says so. Calls `on_step` after every step:
+    /// [`ControlFlow::Break`] cancels the run, which then ends where it is (the hypothesis
+    /// being tried counts as the chosen one). Ends unblurred, with the pose prior's weight back
+    /// at `μ`. Errors (and stops) on the first step that errors, or before the first step on a
+    /// stage whose `prior_scale` is negative or not finite.
     pub fn run(
         &mut self,
         schedule: &Schedule,
         hypotheses: &[Pose],
         mut on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
     ) -> Result<RunReport> {
+        if let Some(stage) = schedule.stages.iter().find(|s| !(s.prior_scale.is_finite() && s.prior_scale >= 0.0)) {
+            return Err(Error::InvalidSettings(format!("need a non-negative prior scale, got {}", stage.prior_scale)));
+        }
         let first_blur = schedule.stages.first().map_or(0.0, |s| s.blur);
+        self.set_prior_scale(schedule.stages.first().map_or(1.0, |s| s.prior_scale));
         let mut step = 0;
         let mut states = Vec::new();
         let mut hypothesis_energies = Vec::new();
@@ -182,6 +210,7 @@ impl PoseFit {
         let last = schedule.stages.len().saturating_sub(1);
         for (s, stage) in schedule.stages.iter().enumerate() {
             self.set_blur(stage.blur)?;
+            self.set_prior_scale(stage.prior_scale);
             let rule = if s == last { schedule.convergence } else { None };
             let mut energies = Vec::new();
             for _ in 0..stage.steps {
@@ -201,9 +230,10 @@ impl PoseFit {
         self.end(step, hypothesis_energies, chosen, Stop::Finished)
     }
 
-    /// Ends a run: no blur, the final energy, the report.
+    /// Ends a run: no blur, the prior at `μ`, the final energy, the report.
     fn end(&mut self, steps: u32, hypothesis_energies: Vec<f64>, chosen: usize, stop: Stop) -> Result<RunReport> {
         self.set_blur(0.0)?;
+        self.set_prior_scale(1.0);
         let energy = self.energy()?;
         Ok(RunReport { steps, hypothesis_energies, chosen, energy, stop })
     }

@@ -12,7 +12,7 @@ use super::fit_from_rest;
 
 /// A short schedule: 4 steps per hypothesis, then one blurred step of the chosen one.
 fn schedule() -> Schedule {
-    Schedule { hypothesis_steps: 4, stages: vec![Stage { blur: Schedule::COARSE_BLUR, steps: 1 }], convergence: None }
+    Schedule { hypothesis_steps: 4, stages: vec![Stage::new(Schedule::COARSE_BLUR, 1)], convergence: None }
 }
 
 /// The fit of seed 3 at 24², fitting the inflation and the outline too (their own Adam per

@@ -6,6 +6,7 @@ mod hypotheses;
 mod inflation;
 mod interval;
 mod outline;
+mod prior_scale;
 mod swap;
 
 use std::ops::ControlFlow;
@@ -160,7 +161,7 @@ fn default_schedule_splits_the_steps() {
     let many = Schedule::coarse_to_fine(100, 20);
     assert!(20 * many.hypothesis_steps <= 50);
     assert!(Schedule::coarse_to_fine(3, 3).total_steps(3) <= 3);
-    let plain = Schedule { hypothesis_steps: 0, stages: vec![Stage { blur: 0.0, steps: 5 }], convergence: None };
+    let plain = Schedule { hypothesis_steps: 0, stages: vec![Stage::new(0.0, 5)], convergence: None };
     assert_eq!(plain.total_steps(1), 5);
 }
 
