@@ -2,10 +2,11 @@
 //! library's one-call method `diffsil::pose::fit::fit`.
 //!
 //! ```text
-//! cargo run --release --example fit_pose                          # built-in figure, seed 1
+//! cargo run --release --example fit_pose                          # the MakeHuman body, seed 1
+//! cargo run --release --example fit_pose -- --shape               # and a random shape, fitted too
 //! cargo run --release --example fit_pose -- --model ../shared/assets/RiggedFigure.glb
-//! cargo run --release --example fit_pose -- --seeds 31-80         # median, p90, worst, failures
-//! cargo run --release --example fit_pose -- --seeds 31-50 --mask-noise dilate
+//! cargo run --release --example fit_pose -- --seeds 1-30          # median, p90, worst, failures
+//! cargo run --release --example fit_pose -- --figure --seeds 31-50 --mask-noise dilate
 //! cargo run --release --example fit_pose -- --ablation 10         # paper Table 2 over 10 seeds
 //! cargo run --release --example fit_pose -- --targets a.png,b.png --cameras cameras.json --save
 //! ```
@@ -39,6 +40,7 @@ use diffsil::pose::fit::{
     fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Schedule, Stop,
     RAISED_ELEVATION_DEG,
 };
+use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Mesh, RenderSettings, Renderer};
 
@@ -74,9 +76,13 @@ back, both legs mirrored and the legs exchanged, each refined 10 steps beside th
 where the energy ends lower (--swap-steps). Same method and settings at every resolution and F."
 )]
 pub struct Options {
-    /// Skinned .gltf/.glb [default: the built-in figure]
+    /// Skinned .gltf/.glb [default: the built-in MakeHuman body, 7,000 vertices, 31 joints, 10
+    /// shape targets]
     #[arg(long, value_name = "PATH")]
     model: Option<PathBuf>,
+    /// Fit the built-in procedural figure (3,864 vertices, 24 joints) instead of the MakeHuman body
+    #[arg(long, conflicts_with = "model")]
+    figure: bool,
     /// The ring of cameras around the model (raised: seeds 31–80 of the built-in figure end
     /// with no fit above 2% of the height, level: one at 57 mm)
     #[arg(long, value_name = "LAYOUT", value_enum, default_value_t = Layout::Raised)]
@@ -223,7 +229,8 @@ fn seed_range(value: &str) -> Result<(u64, u64), String> {
 
 pub fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
     match &o.model {
-        None => Ok((builtin_figure(), "builtin-figure".into())),
+        None if o.figure => Ok((builtin_figure(), "builtin-figure".into())),
+        None => Ok((makehuman_body()?, "makehuman-body-7k".into())),
         Some(path) => match load_gltf(path)? {
             Model::Skinned(model) => {
                 Ok((model, path.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned())))

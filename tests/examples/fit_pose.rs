@@ -136,7 +136,7 @@ fn write_user_data() -> (Vec<PathBuf>, PathBuf) {
 
 fn user_options(masks: &[PathBuf], cameras: &Path, extra: &[&str]) -> example::Options {
     let list = masks.iter().map(|p| p.to_str().unwrap()).collect::<Vec<_>>().join(",");
-    let args = ["fit_pose", "--targets", &list, "--cameras", cameras.to_str().unwrap()];
+    let args = ["fit_pose", "--figure", "--targets", &list, "--cameras", cameras.to_str().unwrap()];
     example::Options::try_parse_from(args.iter().copied().chain(extra.iter().copied())).unwrap()
 }
 
@@ -222,6 +222,20 @@ fn bad_user_data_are_clear_errors() {
     // One frame of a motion needs the motion.
     let e = example::Options::try_parse_from(["fit_pose", "--frame", "3"]).unwrap_err().to_string();
     assert!(e.contains("--motion"), "{e}");
+}
+
+#[test]
+fn the_default_model_is_the_makehuman_body_and_figure_picks_the_procedural_one() {
+    let parse = |args: &[&str]| example::Options::try_parse_from(args.iter().copied());
+    let (body, name) = example::load_model(&parse(&["fit_pose"]).unwrap()).unwrap();
+    assert_eq!(
+        (body.joint_count(), body.vertex_count(), body.shape_count(), name.as_str()),
+        (31, 7000, 10, "makehuman-body-7k")
+    );
+    let (figure, name) = example::load_model(&parse(&["fit_pose", "--figure"]).unwrap()).unwrap();
+    assert_eq!((figure.joint_count(), name.as_str()), (builtin_figure().joint_count(), "builtin-figure"));
+    let e = parse(&["fit_pose", "--figure", "--model", "body.glb"]).unwrap_err().to_string();
+    assert!(e.contains("--model"), "{e}");
 }
 
 #[test]
