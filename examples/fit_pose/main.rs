@@ -356,7 +356,13 @@ fn fit_seed(
     let (mut fit, run) = (fitted.fit, fitted.report);
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
     if let (false, Some(report)) = (quiet, &fitted.swap) {
-        println!("swap test: pose {:.3e}, kept {:?}", report.energy, report.kept);
+        let candidates: Vec<String> = report.candidates.iter().map(|(c, e)| format!("{c:?} {e:.3e}")).collect();
+        println!(
+            "swap test: pose {:.3e}, kept {:?} (candidates: {})",
+            report.energy,
+            report.kept,
+            candidates.join(", ")
+        );
     }
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {

@@ -173,11 +173,26 @@ impl PoseFit {
         &mut self,
         schedule: &Schedule,
         hypotheses: &[Pose],
-        mut on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
+        on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
     ) -> Result<RunReport> {
         if let Some(stage) = schedule.stages.iter().find(|s| !(s.prior_scale.is_finite() && s.prior_scale >= 0.0)) {
             return Err(Error::InvalidSettings(format!("need a non-negative prior scale, got {}", stage.prior_scale)));
         }
+        let result = self.run_schedule(schedule, hypotheses, on_step);
+        if result.is_err() {
+            // A step failed mid-stage: later steps the caller takes weigh the prior by μ.
+            self.set_prior_scale(1.0);
+        }
+        result
+    }
+
+    /// [`PoseFit::run`] after its checks.
+    fn run_schedule(
+        &mut self,
+        schedule: &Schedule,
+        hypotheses: &[Pose],
+        mut on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
+    ) -> Result<RunReport> {
         let first_blur = schedule.stages.first().map_or(0.0, |s| s.blur);
         self.set_prior_scale(schedule.stages.first().map_or(1.0, |s| s.prior_scale));
         let mut step = 0;
