@@ -38,7 +38,7 @@ use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
     fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Schedule, Stop,
-    RAISED_ELEVATION_DEG,
+    SwapScreen, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
@@ -72,8 +72,9 @@ starting poses (rest, legs striding each way) runs 1/10 of the steps with a blur
 image height; the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%,
 1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
 steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
-back, both legs mirrored and the legs exchanged, each refined 10 steps beside the pose and kept
-where the energy ends lower (--swap-steps). Same method and settings at every resolution and F."
+back, both legs mirrored and the legs exchanged; the three lowest in energy as they are refined 10
+steps beside the pose and kept where the energy ends lower (--swap-steps, --swap-refined). Same
+method and settings at every resolution and F."
 )]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in MakeHuman body, 7,000 vertices, 31 joints, 10
@@ -122,6 +123,14 @@ pub struct Options {
     /// exchanged, kept where the energy ends lower); 0: none [default: FitOptions::SWAP_STEPS]
     #[arg(long, value_name = "K")]
     swap_steps: Option<u32>,
+    /// Swap candidates refined: this many of the lowest in energy as they are (a number at
+    /// least the candidates' refines all, unscreened) [default: SwapScreen::default, 3]
+    #[arg(long, value_name = "K")]
+    swap_refined: Option<usize>,
+    /// Swap candidates refined besides: any whose energy as it is is at most X times the
+    /// pose's [default: SwapScreen::default, 2]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    swap_within: Option<f32>,
     /// Arm swing (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0", value_parser = finite)]
     arm_swing: f32,
@@ -276,6 +285,10 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_outline: o.outline.unwrap_or(defaults.fit_outline),
         outline_rate: o.outline_rate,
         swap_steps: o.swap_steps.unwrap_or(defaults.swap_steps),
+        swap_screen: SwapScreen {
+            lowest: o.swap_refined.unwrap_or(defaults.swap_screen.lowest),
+            within: o.swap_within.map_or(defaults.swap_screen.within, f64::from),
+        },
         ..defaults
     }
 }
@@ -356,7 +369,12 @@ fn fit_seed(
     let (mut fit, run) = (fitted.fit, fitted.report);
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
     if let (false, Some(report)) = (quiet, &fitted.swap) {
-        let candidates: Vec<String> = report.candidates.iter().map(|(c, e)| format!("{c:?} {e:.3e}")).collect();
+        let energy = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3e}"));
+        let candidates: Vec<String> = report
+            .candidates
+            .iter()
+            .map(|c| format!("{:?} {} → {}", c.kind, energy(c.start_energy), energy(c.energy)))
+            .collect();
         println!(
             "swap test: pose {:.3e}, kept {:?} (candidates: {})",
             report.energy,

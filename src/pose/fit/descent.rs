@@ -26,7 +26,7 @@ use silhouette::{silhouette_loss, silhouette_pass};
 // The limb swap test on a final pose, in its own file.
 #[path = "swap.rs"]
 mod swap;
-pub use swap::{limb_swaps, LimbSwap, SwapReport};
+pub use swap::{limb_swaps, LimbSwap, SwapCandidate, SwapReport, SwapScreen};
 
 /// The numbers of one fitting step.
 #[derive(Clone, Copy, Debug, PartialEq)]

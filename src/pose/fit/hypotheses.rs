@@ -87,7 +87,7 @@ impl PoseFit {
     /// [`PoseFit::energy`] at each of `states`, their renders in one batch and their
     /// self-intersection checks beside it (the same bits as one call per state). The fit is
     /// left at the last state.
-    fn energies(&mut self, states: &[FitState]) -> Result<Vec<f64>> {
+    pub(in crate::pose::fit) fn energies(&mut self, states: &[FitState]) -> Result<Vec<f64>> {
         if states.is_empty() {
             return Ok(Vec::new());
         }

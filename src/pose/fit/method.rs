@@ -3,7 +3,7 @@
 use std::ops::ControlFlow;
 
 use super::{limb_swing_hypotheses, Convergence, Free, PoseFit, Progress, RunReport, Schedule};
-use super::{FitSettings, Stage, Stop, SwapReport};
+use super::{FitSettings, Stage, Stop, SwapReport, SwapScreen};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Renderer, Result};
 
@@ -80,6 +80,10 @@ pub struct FitOptions {
     /// steps, a candidate kept only where the energy ends lower); 0: no swap test. Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
     pub swap_steps: u32,
+    /// Which swap candidates take the refinement steps, by their energy as they are
+    /// ([`SwapScreen`]; [`SwapScreen::ALL`] refines every one). Default
+    /// [`SwapScreen::default`]: the three lowest and any within twice the pose's energy.
+    pub swap_screen: SwapScreen,
 }
 
 impl Default for FitOptions {
@@ -106,6 +110,7 @@ impl Default for FitOptions {
             fit_outline: FitOptions::FIT_OUTLINE,
             outline_rate: FitOptions::OUTLINE_RATE,
             swap_steps: FitOptions::SWAP_STEPS,
+            swap_screen: SwapScreen::default(),
         }
     }
 }
@@ -265,7 +270,7 @@ pub fn fit(
     }
     let report = fit.run(&schedule, &hypotheses, on_step)?;
     let swap = if options.swap_steps > 0 && options.fit_pose && report.stop != Stop::Cancelled {
-        Some(fit.swap_limbs(options.swap_steps)?)
+        Some(fit.swap_limbs(options.swap_steps, options.swap_screen)?)
     } else {
         None
     };

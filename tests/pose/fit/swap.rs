@@ -1,12 +1,13 @@
 //! The limb swap test (`PoseFit::swap_limbs`, `limb_swaps`): a mirrored limb is the reflection
 //! of the limb in the body's coronal plane and mirroring twice gives the pose back; a fit whose
-//! arm or leg sits on the wrong side ends on the right one; a swap that raises the energy is not
-//! kept; `fit::fit` runs the test after its descent only when asked.
+//! arm or leg sits on the wrong side ends on the right one; screening refines the candidates
+//! lowest as they are, to the bits of the full test; a swap that raises the energy is not kept;
+//! `fit::fit` runs the test after its descent only when asked.
 
 use diffsil::pose::figure::builtin_figure;
 use diffsil::pose::fit::{
     fit, framing_ring, limb_swaps, limb_swing_hypotheses, per_vertex_error, FitOptions, FitSettings, LimbSwap, PoseFit,
-    RAISED_ELEVATION_DEG,
+    SwapScreen, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mat3, RenderSettings, Renderer, Vec3};
@@ -140,14 +141,72 @@ fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
         // A fresh Adam's first steps move every parameter by the learning rate (a fit's own
         // Adam has settled by the end of its descent): small steps here.
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps).unwrap();
+        let report = fit.swap_limbs(steps, SwapScreen::ALL).unwrap();
         assert_eq!(report.kept, Some(LimbSwap::Mirror(arm)), "{report:?}");
         let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
         assert!(error < 0.2 * start_error, "{steps} steps: {start_error} m → {error} m");
-        let kept = report.candidates.iter().find(|(k, _)| *k == LimbSwap::Mirror(arm)).unwrap().1;
+        let kept = report.candidates.iter().find(|c| c.kind == LimbSwap::Mirror(arm)).unwrap().energy.unwrap();
         assert!(kept < report.energy, "{report:?}");
         assert!((fit.energy().unwrap() - kept).abs() <= 1e-9 * kept.max(1e-12), "{report:?}");
     }
+}
+
+#[test]
+fn screening_refines_the_lowest_candidates_to_the_same_bits_as_the_full_test() {
+    let (model, truth) = striding();
+    let [_, _, arm, _] = limbs(&model, &truth)[..] else { panic!("no arms") };
+    let (cameras, targets) = views(&model, &truth, 32);
+    let wrong = candidate(&model, &truth, LimbSwap::Mirror(arm));
+    let run = |screen: SwapScreen| {
+        let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+        fit.set_learning_rate(0.002).unwrap();
+        let report = fit.swap_limbs(3, screen).unwrap();
+        (report, fit.pose())
+    };
+    let (full, full_pose) = run(SwapScreen::ALL);
+    assert!(full.candidates.iter().all(|c| c.start_energy.is_none() && c.energy.is_some()), "{full:?}");
+    assert_eq!(full.start_energy, None);
+    let (screened, screened_pose) = run(SwapScreen { lowest: 2, within: 0.0 });
+    // Every candidate's energy as it is; the two lowest refined.
+    let start = |c: &diffsil::pose::fit::SwapCandidate| c.start_energy.expect("screened");
+    let mut order: Vec<usize> = (0..screened.candidates.len()).collect();
+    order.sort_by(|&a, &b| start(&screened.candidates[a]).total_cmp(&start(&screened.candidates[b])));
+    for (rank, &k) in order.iter().enumerate() {
+        let (c, f) = (&screened.candidates[k], &full.candidates[k]);
+        assert_eq!(c.kind, f.kind);
+        if rank < 2 {
+            // The same steps as in the full test, whatever ran beside them.
+            assert_eq!(c.energy, f.energy, "{screened:?}");
+        } else {
+            assert_eq!(c.energy, None, "{screened:?}");
+        }
+    }
+    assert_eq!(screened.energy, full.energy);
+    assert_eq!(screened.kept, Some(LimbSwap::Mirror(arm)), "{screened:?}");
+    assert_eq!((screened.kept, screened_pose), (full.kept, full_pose));
+    // None refined: the pose takes its steps alone and stays.
+    let (none, _) = run(SwapScreen { lowest: 0, within: 0.0 });
+    assert!(none.candidates.iter().all(|c| c.start_energy.is_some() && c.energy.is_none()), "{none:?}");
+    assert_eq!((none.kept, none.energy), (None, full.energy));
+    // By the ratio to the pose's energy as it is: those within it, here every one.
+    let pose_start = screened.start_energy.expect("screened");
+    let highest = screened.candidates.iter().map(start).fold(0.0, f64::max);
+    let (ratio, _) = run(SwapScreen { lowest: 0, within: highest / pose_start });
+    assert_eq!(
+        ratio.candidates.iter().map(|c| c.energy).collect::<Vec<_>>(),
+        full.candidates.iter().map(|c| c.energy).collect::<Vec<_>>()
+    );
+    // Only those within it.
+    let middle = start(&screened.candidates[order[order.len() / 2]]);
+    let within = middle / pose_start;
+    let (half, _) = run(SwapScreen { lowest: 0, within });
+    for c in &half.candidates {
+        assert_eq!(c.energy.is_some(), start(c) <= within * pose_start, "{half:?}");
+    }
+    assert!(half.candidates.iter().any(|c| c.energy.is_none()), "{half:?}");
+    let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: f64::NAN }).is_err());
+    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: -1.0 }).is_err());
 }
 
 #[test]
@@ -157,10 +216,10 @@ fn a_swap_that_raises_the_energy_is_not_kept() {
     for steps in [0, 3] {
         let mut fit = fit_from(&model, &truth, cameras.clone(), targets.clone());
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps).unwrap();
+        let report = fit.swap_limbs(steps, SwapScreen::ALL).unwrap();
         assert_eq!(report.kept, None, "{report:?}");
         assert_eq!(report.candidates.len(), 6);
-        assert!(report.candidates.iter().all(|(_, e)| *e > report.energy), "{report:?}");
+        assert!(report.candidates.iter().all(|c| c.energy.unwrap() > report.energy), "{report:?}");
         if steps == 0 {
             let error = per_vertex_error(&fit.vertices().unwrap(), &model.skin(&truth).unwrap());
             assert!(error < 1e-6, "stayed at the truth: {error} m");
@@ -180,7 +239,7 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     .unwrap();
     let swap = with.swap.expect("the swap test ran");
     // Six, and a forward and a back swing for each arm left near the body's plane.
-    let swings = swap.candidates.iter().filter(|(k, _)| matches!(k, LimbSwap::Swing(..))).count();
+    let swings = swap.candidates.iter().filter(|c| matches!(c.kind, LimbSwap::Swing(..))).count();
     assert_eq!(swap.candidates.len(), 6 + swings, "{swap:?}");
     assert!(swings % 2 == 0 && swings <= 4, "{swap:?}");
     let options = FitOptions { swap_steps: 0, ..options };
@@ -278,7 +337,7 @@ fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
     let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
     let mut fit = fit_from(&model, &start, cameras, targets);
     fit.set_learning_rate(0.002).unwrap();
-    let report = fit.swap_limbs(4).unwrap();
+    let report = fit.swap_limbs(4, SwapScreen::ALL).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Swing(arm, true)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
