@@ -128,7 +128,7 @@ pub struct Options {
     #[arg(long, value_name = "K")]
     swap_refined: Option<usize>,
     /// Swap candidates refined besides: any whose energy as it is is at most X times the
-    /// pose's [default: SwapScreen::default, 2]
+    /// pose's [default: SwapScreen::default, 3]
     #[arg(long, value_name = "X", value_parser = finite)]
     swap_within: Option<f32>,
     /// Arm swing (radians) of the extra starting poses; 0: none

@@ -82,7 +82,7 @@ pub struct FitOptions {
     pub swap_steps: u32,
     /// Which swap candidates take the refinement steps, by their energy as they are
     /// ([`SwapScreen`]; [`SwapScreen::ALL`] refines every one). Default
-    /// [`SwapScreen::default`]: the three lowest and any within twice the pose's energy.
+    /// [`SwapScreen::default`]: the three lowest and any within three times the pose's energy.
     pub swap_screen: SwapScreen,
 }
 

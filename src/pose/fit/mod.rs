@@ -99,14 +99,13 @@
 //!    also swung 40° forward and 40° back (an arm fitted alongside the torso where the target's
 //!    reaches forward is hidden in the side views and gets no gradient to come out). The six to
 //!    ten candidates are screened by their energy as they are (one render batch with the pose's,
-//!    [`SwapScreen`]): the three lowest and any within twice the pose's energy take 10
+//!    [`SwapScreen`]): the three lowest and any within three times the pose's energy take 10
 //!    unblurred steps beside the pose, in one batch per step, and a candidate replaces the pose
 //!    only where its energy then ends lower. A state's steps do not depend on the others in its
 //!    batch, so the screen changes a fit only where it leaves out the candidate the full test
-//!    would keep: over 272 fits of five models and four kinds of mask it never did, and it
-//!    refines 3.4 candidates of 8.2 on average (the swap test's time falls by about half; see
-//!    the README). Two lowest alone, tried earlier with the energies taken one by one, lost two
-//!    swaps and saved nothing.
+//!    would keep: over 386 fits of four models and four kinds of mask it never does, and it
+//!    refines 3.5 candidates of 8.1 on average (see the README). Two lowest alone, tried earlier
+//!    with the energies taken one by one, lost two swaps and saved nothing.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
