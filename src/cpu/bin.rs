@@ -445,9 +445,19 @@ pub fn bin_tiles(
     bins.triangles.resize(entries, 0);
     bins.boxes.resize(entries, [0.0; 4]);
     bins.vertices.resize(entries, [[0.0; 2]; 3]);
+    // A triangle's pairs follow each other: its box, vertices and orientation once for all.
+    let mut last = None;
     for &(slot, t) in parts.iter().flatten() {
-        let (bbox, v) = float_box(screen, triangles[t as usize]);
-        let at = if positive_area(v) {
+        let (bbox, v, positive) = match last {
+            Some((u, entry)) if u == t => entry,
+            _ => {
+                let (bbox, v) = float_box(screen, triangles[t as usize]);
+                let entry = (bbox, v, positive_area(v));
+                last = Some((t, entry));
+                entry
+            }
+        };
+        let at = if positive {
             let c = &mut cursor[slot as usize];
             *c += 1;
             *c - 1
