@@ -444,13 +444,24 @@ impl PoseFit {
 
     /// One gradient step; returns the energies at the pose before the step.
     pub fn step(&mut self) -> Result<StepReport> {
-        self.step_with(None)
+        self.step_with(None, None)
+    }
+
+    /// Whether the next step checks for self-intersection: `λ > 0` and the last check is
+    /// `intersection_interval` steps old or missing.
+    fn check_due(&self) -> bool {
+        self.lambda > 0.0 && !matches!(&self.intersection, Some((_, age)) if *age < self.intersection_interval)
     }
 
     /// [`PoseFit::step`], with `E_sl`, its vertex gradient at the rendered vertices and
-    /// `∂E_sl/∂a` (the outline) already computed when `pass` is given (the hypotheses' batch,
-    /// `hypotheses.rs`).
-    fn step_with(&mut self, pass: Option<(f64, Vec<Vec3>, f64)>) -> Result<StepReport> {
+    /// `∂E_sl/∂a` (the outline) already computed when `pass` is given, and the self-intersection
+    /// check when `checked` is given and [`PoseFit::check_due`] (the hypotheses' batch,
+    /// `hypotheses.rs`, which runs them beside its render).
+    fn step_with(
+        &mut self,
+        pass: Option<(f64, Vec<Vec3>, f64)>,
+        checked: Option<SelfIntersection>,
+    ) -> Result<StepReport> {
         let pose = self.pose();
         let (vertices, cache) = self.model.skin_shaped_with_cache(&pose, self.shape())?;
         let normals = self.set_rendered_positions(&vertices)?;
@@ -476,7 +487,11 @@ impl PoseFit {
                 Some(pass) => Ok(pass),
                 None => silhouette_pass(renderer, mesh, cameras, targets, blurs, pixel_weight, outline),
             },
-            || if check { checker.check(&vertices).map(Some) } else { Ok(None) },
+            || match (check, checked) {
+                (false, _) => Ok(None),
+                (true, Some(result)) => Ok(Some(result)),
+                (true, None) => checker.check(&vertices).map(Some),
+            },
         );
         let (silhouette, mut d_vertices, d_outline) = silhouette_pass?;
         // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'

@@ -9,12 +9,16 @@
 //! arithmetic as [`PoseFit::step`] (the batch returns the bits of separate calls; the
 //! self-intersection check sorts its pairs, so it does not depend on which pose it saw before),
 //! so the phase's results are those of running the hypotheses one after the other, bit for bit.
+//! The self-intersection checks that a step has due (one thread, one hypothesis after the other)
+//! run beside the batch's render and backward, as a single step runs its own check beside its
+//! render; run inside each hypothesis's step, after the batch, they left the other core idle.
 //! Their final energies are rendered as one batch too, with the self-intersection checks beside
 //! the render.
 
 use glam::Vec3;
 
 use super::{silhouette_loss, FitState, PoseFit, StepReport};
+use crate::pose::self_intersection::SelfIntersection;
 use crate::pose::skin::Pose;
 use crate::{Image, Instance, Mesh, Result};
 
@@ -57,20 +61,23 @@ impl PoseFit {
         self.set_blur(blur)?;
         let mut traces: Vec<Vec<(StepReport, FitState)>> = states.iter().map(|_| Vec::new()).collect();
         for _ in 0..steps {
-            // Every hypothesis's rendered vertices and outline, as its step computes them.
+            // Every hypothesis's rendered vertices and outline, as its step computes them, and
+            // its skinned vertices where its step checks for self-intersection.
             let mut meshes = Vec::with_capacity(states.len());
             let mut outlines = Vec::with_capacity(states.len());
+            let mut checks = Vec::with_capacity(states.len());
             for state in &states {
                 self.set_state(state.clone())?;
                 let (vertices, _) = self.model.skin_shaped_with_cache(&self.pose(), self.shape())?;
                 self.set_rendered_positions(&vertices)?;
                 meshes.push(self.mesh.clone());
                 outlines.push(self.outline_setting());
+                checks.push(self.check_due().then_some(vertices));
             }
-            let passes = self.silhouette_passes(&meshes, &outlines)?;
-            for ((state, trace), pass) in states.iter_mut().zip(&mut traces).zip(passes) {
+            let (passes, checked) = self.silhouette_passes(&meshes, &outlines, &checks)?;
+            for (((state, trace), pass), checked) in states.iter_mut().zip(&mut traces).zip(passes).zip(checked) {
                 self.set_state(state.clone())?;
-                let report = self.step_with(Some(pass))?;
+                let report = self.step_with(Some(pass), checked)?;
                 *state = self.state();
                 trace.push((report, state.clone()));
             }
@@ -122,20 +129,35 @@ impl PoseFit {
     }
 
     /// `E_sl`, its gradient at the rendered vertices and `∂E_sl/∂a` for each of `meshes` (the
-    /// rendered mesh of each hypothesis, compared with its outline nuisance), one batch.
-    fn silhouette_passes(&mut self, meshes: &[Mesh], outlines: &[Option<f32>]) -> Result<Vec<(f64, Vec<Vec3>, f64)>> {
-        let instances: Vec<Instance<'_>> =
-            meshes.iter().map(|mesh| Instance { mesh, cameras: &self.cameras }).collect();
-        let frame = self.renderer.render_batch(&instances)?;
-        let mut losses = Vec::with_capacity(meshes.len());
-        let mut d_images: Vec<Vec<Image>> = Vec::with_capacity(meshes.len());
-        for (k, outline) in outlines.iter().enumerate() {
-            let (loss, d, d_outline) =
-                silhouette_loss(frame.images(k), &self.blurred_targets, &self.blurs, self.pixel_weight, *outline)?;
-            losses.push((loss, d_outline));
-            d_images.push(d);
-        }
-        let grads = self.renderer.backward_batch(&frame, &d_images)?;
-        Ok(losses.into_iter().zip(grads).map(|((loss, d_outline), grad)| (loss, grad, d_outline)).collect())
+    /// rendered mesh of each hypothesis, compared with its outline nuisance), one batch; beside
+    /// it, on one thread, the self-intersection check of each skinned mesh in `checks` (`None`:
+    /// no check due), in order (the same bits as in each step).
+    #[allow(clippy::type_complexity)]
+    fn silhouette_passes(
+        &mut self,
+        meshes: &[Mesh],
+        outlines: &[Option<f32>],
+        checks: &[Option<Vec<Vec3>>],
+    ) -> Result<(Vec<(f64, Vec<Vec3>, f64)>, Vec<Option<SelfIntersection>>)> {
+        let (renderer, checker, cameras) = (&mut self.renderer, &mut self.checker, &self.cameras);
+        let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
+        let (passes, checked) = rayon::join(
+            || -> Result<Vec<(f64, Vec<Vec3>, f64)>> {
+                let instances: Vec<Instance<'_>> = meshes.iter().map(|mesh| Instance { mesh, cameras }).collect();
+                let frame = renderer.render_batch(&instances)?;
+                let mut losses = Vec::with_capacity(meshes.len());
+                let mut d_images: Vec<Vec<Image>> = Vec::with_capacity(meshes.len());
+                for (k, outline) in outlines.iter().enumerate() {
+                    let (loss, d, d_outline) =
+                        silhouette_loss(frame.images(k), targets, blurs, pixel_weight, *outline)?;
+                    losses.push((loss, d_outline));
+                    d_images.push(d);
+                }
+                let grads = renderer.backward_batch(&frame, &d_images)?;
+                Ok(losses.into_iter().zip(grads).map(|((loss, d_outline), grad)| (loss, grad, d_outline)).collect())
+            },
+            || checks.iter().map(|v| v.as_ref().map(|v| checker.check(v)).transpose()).collect::<Result<Vec<_>>>(),
+        );
+        Ok((passes?, checked?))
     }
 }

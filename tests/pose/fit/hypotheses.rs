@@ -5,7 +5,8 @@
 
 use std::ops::ControlFlow;
 
-use diffsil::pose::fit::{stride_hypotheses, PoseFit, Schedule, Stage, StepReport, Stop};
+use diffsil::pose::figure::random_pose_limits;
+use diffsil::pose::fit::{random_pose, stride_hypotheses, PoseFit, Schedule, Stage, StepReport, Stop};
 use diffsil::pose::skin::Pose;
 
 use super::fit_from_rest;
@@ -16,13 +17,22 @@ fn schedule() -> Schedule {
 }
 
 /// The fit of seed 3 at 24², fitting the inflation and the outline too (their own Adam per
-/// hypothesis), with a self-intersection check every 3rd step (each hypothesis its own).
-fn fit() -> (PoseFit, Vec<Pose>) {
+/// hypothesis), with a self-intersection check every 3rd step (each hypothesis its own, run
+/// beside the batch's render): from the leg strides, and from three wild poses (2.5 times the
+/// random poses' limits) whose limbs cross the body, each its own way (seeds 3 and 7), or not
+/// (seed 0).
+fn fit(wild: bool) -> (PoseFit, Vec<Pose>) {
     let (mut fit, model, _) = fit_from_rest(24, 3);
     fit.set_inflation_rate(0.01).unwrap();
     fit.set_outline_rate(0.06).unwrap();
     fit.set_intersection_interval(3).unwrap();
-    (fit, stride_hypotheses(&model, 0.3).unwrap())
+    let starts = if wild {
+        let limits: Vec<f32> = random_pose_limits(&model.skeleton).iter().map(|l| l * 2.5).collect();
+        [3, 7, 0].map(|seed| random_pose(&limits, 0.3, seed)).to_vec()
+    } else {
+        stride_hypotheses(&model, 0.3).unwrap()
+    };
+    (fit, starts)
 }
 
 /// What [`sequentially`] saw.
@@ -61,12 +71,23 @@ fn sequentially(fit: &mut PoseFit, schedule: &Schedule, starts: &[Pose]) -> Sequ
 
 #[test]
 fn batched_hypotheses_equal_hypotheses_in_turn() {
+    for wild in [false, true] {
+        batched_equals_in_turn(wild);
+    }
+}
+
+fn batched_equals_in_turn(wild: bool) {
     let schedule = schedule();
-    let (mut reference, starts) = fit();
+    let (mut reference, starts) = fit(wild);
     let expected = sequentially(&mut reference, &schedule, &starts);
     assert_eq!(expected.steps.len(), 3 * 4 + 1);
+    if wild {
+        // Each start crosses itself its own way, or not at all.
+        let first: Vec<f64> = (0..3).map(|k| expected.steps[4 * k].0.self_intersection_surrogate).collect();
+        assert!(first[0] > 0.0 && first[1] > 0.0 && first[0] != first[1] && first[2] == 0.0, "{first:?}");
+    }
 
-    let (mut batched, _) = fit();
+    let (mut batched, _) = fit(wild);
     let mut seen = Vec::new();
     let report = batched
         .run(&schedule, &starts, |fit, p| {
@@ -87,7 +108,7 @@ fn batched_hypotheses_equal_hypotheses_in_turn() {
     assert!(batched.outline() != 0.0, "the outline must move for the test to cover it");
 
     // Cancelled in the second step of the second hypothesis: the fit is where it was then.
-    let (mut cancelled, _) = fit();
+    let (mut cancelled, _) = fit(wild);
     let report = cancelled
         .run(&schedule, &starts, |_, p| if p.step == 6 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) })
         .unwrap();
