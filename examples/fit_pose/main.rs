@@ -74,9 +74,10 @@ starting poses (rest, legs striding each way) runs 1/10 of the steps with a blur
 image height; the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%,
 1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
 steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
-back, both legs mirrored and the legs exchanged; the three lowest in energy as they are refined 10
-steps beside the pose and kept where the energy ends lower (--swap-steps, --swap-refined). Same
-method and settings at every resolution and F."
+back, both legs mirrored and the legs exchanged; the three lowest in energy as they are, and any
+within 3 times the pose's energy, refined 10 steps beside the pose and kept where the energy ends
+lower (--swap-steps, --swap-refined, --swap-within). Same method and settings at every resolution
+and F."
 )]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in MakeHuman body, 7,000 vertices, 31 joints, 10
