@@ -64,9 +64,7 @@ pub(super) fn silhouette_loss(
     let mut d_images = Vec::with_capacity(views.len());
     for (value, grad, d_a) in views {
         silhouette += value * pixel_weight;
-        if outline.is_some() {
-            d_outline += d_a;
-        }
+        d_outline += d_a;
         d_images.push(grad);
     }
     Ok((silhouette, d_images, d_outline))
