@@ -105,14 +105,44 @@ impl fmt::Display for AdapterReport {
     }
 }
 
-/// An instance honouring `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance variables).
-pub(super) fn instance_from_env() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+/// The backends searched first, and the one searched only when they offer no hardware adapter
+/// (or when GL is asked for by backend).
+///
+/// GL (EGL on Linux) is left out of the first search: on a machine with a Vulkan driver it
+/// adds nothing the Vulkan adapter does not have, and initialising EGL in a process whose other
+/// threads use NVIDIA's Vulkan driver hung them (seen on an H200 with driver 580: eight test
+/// threads, one of them searching for an adapter name that did not exist, never returned;
+/// with Vulkan alone they ran).
+const SEARCH_ORDER: [wgpu::Backends; 2] = [wgpu::Backends::all().difference(wgpu::Backends::GL), wgpu::Backends::GL];
+
+/// Serialises the GL search: EGL's initialisation is not safe to run from several threads at
+/// once on every driver.
+static GL_SEARCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// An instance of those of `backends` that `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance
+/// variables) allow, or `None` when none is left.
+fn instance_from_env(backends: wgpu::Backends) -> Option<wgpu::Instance> {
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    descriptor.backends &= backends;
+    (!descriptor.backends.is_empty()).then(|| wgpu::Instance::new(descriptor))
+}
+
+/// The adapters of `backends` (allowed by `WGPU_BACKEND`), with the GL search serialised.
+async fn enumerate(backends: wgpu::Backends) -> Vec<wgpu::Adapter> {
+    let _guard = backends.contains(wgpu::Backends::GL).then(|| GL_SEARCH.lock().unwrap_or_else(|e| e.into_inner()));
+    match instance_from_env(backends) {
+        Some(instance) => instance.enumerate_adapters(backends).await,
+        None => Vec::new(),
+    }
 }
 
 fn supports_compute(adapter: &wgpu::Adapter) -> bool {
     adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
         && adapter.limits().max_compute_workgroups_per_dimension > 0
+}
+
+fn is_hardware(adapter: &wgpu::Adapter) -> bool {
+    adapter.get_info().device_type != wgpu::DeviceType::Cpu
 }
 
 /// Lower is better.
@@ -129,49 +159,63 @@ fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
 /// Whether a compute-capable adapter that is not a CPU implementation (lavapipe, llvmpipe,
 /// SwiftShader) exists, among the backends `WGPU_BACKEND` allows. Use it to choose between the
 /// GPU and the CPU backend automatically: on a machine with only a software rasterizer the CPU
-/// backend is faster.
+/// backend is faster. GL is only looked at when the other backends have no such adapter.
 pub fn hardware_gpu_available() -> bool {
-    let adapters = pollster::block_on(instance_from_env().enumerate_adapters(wgpu::Backends::all()));
-    adapters.iter().any(|a| supports_compute(a) && a.get_info().device_type != wgpu::DeviceType::Cpu)
+    SEARCH_ORDER
+        .iter()
+        .any(|&backends| pollster::block_on(enumerate(backends)).iter().any(|a| supports_compute(a) && is_hardware(a)))
 }
 
 /// The adapter `choice` asks for, preferring discrete GPUs (see [`AdapterChoice::Best`]), or
 /// [`Error::NoAdapter`] listing the adapters seen.
-pub(super) async fn select_adapter(instance: &wgpu::Instance, choice: &AdapterChoice) -> Result<wgpu::Adapter> {
-    let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-    let seen: Vec<String> = adapters
-        .iter()
-        .map(|a| {
+///
+/// Vulkan, Metal and DX12 are searched first; GL only when they offer no compute-capable
+/// hardware adapter at all, or when `choice` names the GL backend (see `SEARCH_ORDER`). So a
+/// software Vulkan adapter still loses to a hardware GL one, and on a machine with a hardware
+/// Vulkan adapter a name that only a GL adapter has is not found.
+pub(super) async fn select_adapter(choice: &AdapterChoice) -> Result<wgpu::Adapter> {
+    let mut seen: Vec<String> = Vec::new();
+    let mut best: Option<wgpu::Adapter> = None;
+    let mut hardware_seen = false;
+    let wants_gl = matches!(choice, AdapterChoice::Backend(b) if b.contains(wgpu::Backends::GL));
+    for backends in SEARCH_ORDER {
+        if backends == wgpu::Backends::GL && hardware_seen && !wants_gl {
+            break;
+        }
+        let adapters = enumerate(backends).await;
+        hardware_seen |= adapters.iter().any(|a| supports_compute(a) && is_hardware(a));
+        seen.extend(adapters.iter().map(|a| {
             let report = AdapterReport::from_info(&a.get_info());
             if supports_compute(a) {
                 report.to_string()
             } else {
                 format!("{report} [no compute shaders]")
             }
-        })
-        .collect();
-    let matches = |a: &wgpu::Adapter| {
-        let info = a.get_info();
-        match choice {
-            AdapterChoice::Best => true,
-            AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
-            AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
+        }));
+        let matches = |a: &wgpu::Adapter| {
+            let info = a.get_info();
+            match choice {
+                AdapterChoice::Best => true,
+                AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
+                AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
+            }
+        };
+        // The first of the best rank wins: earlier searches, then wgpu's order within one.
+        for adapter in adapters.into_iter().filter(|a| supports_compute(a) && matches(a)) {
+            let rank = |a: &wgpu::Adapter| device_type_rank(a.get_info().device_type);
+            if best.as_ref().is_none_or(|b| rank(&adapter) < rank(b)) {
+                best = Some(adapter);
+            }
         }
-    };
-    adapters
-        .into_iter()
-        .filter(|a| supports_compute(a) && matches(a))
-        .enumerate()
-        .min_by_key(|(order, a)| (device_type_rank(a.get_info().device_type), *order))
-        .map(|(_, a)| a)
-        .ok_or_else(|| {
-            let backends = match std::env::var("WGPU_BACKEND") {
-                Ok(value) => format!(" with WGPU_BACKEND={value:?}"),
-                Err(_) => String::new(),
-            };
-            let seen = if seen.is_empty() { "none".to_owned() } else { seen.join("; ") };
-            Error::NoAdapter(format!("wanted {choice}; adapters seen{backends}: {seen}"))
-        })
+    }
+    best.ok_or_else(|| {
+        let backends = match std::env::var("WGPU_BACKEND") {
+            Ok(value) => format!(" with WGPU_BACKEND={value:?}"),
+            Err(_) => String::new(),
+        };
+        let seen = if seen.is_empty() { "none".to_owned() } else { seen.join("; ") };
+        Error::NoAdapter(format!("wanted {choice}; adapters seen{backends}: {seen}"))
+    })
 }
 
 /// Samples (pixels × F², summed over the views) from which a call on a software adapter
@@ -216,6 +260,13 @@ mod tests {
         assert_eq!(parse_adapter_choice("metal"), AdapterChoice::Backend(wgpu::Backends::METAL));
         assert_eq!(parse_adapter_choice("dx12"), AdapterChoice::Backend(wgpu::Backends::DX12));
         assert_eq!(parse_adapter_choice("LLVMpipe"), AdapterChoice::Name("LLVMpipe".into()));
+    }
+
+    #[test]
+    fn gl_is_searched_last_and_alone() {
+        assert!(!SEARCH_ORDER[0].contains(wgpu::Backends::GL));
+        assert!(SEARCH_ORDER[0].contains(wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12));
+        assert_eq!(SEARCH_ORDER[1], wgpu::Backends::GL);
     }
 
     #[test]

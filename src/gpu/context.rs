@@ -6,7 +6,7 @@ use std::borrow::Cow;
 use std::fmt;
 use std::sync::{Arc, Mutex};
 
-use super::adapter::{instance_from_env, select_adapter, AdapterReport, GpuOptions};
+use super::adapter::{select_adapter, AdapterReport, GpuOptions};
 use crate::{Error, Result};
 
 /// Errors wgpu reported outside any error scope, collected instead of panicking.
@@ -47,8 +47,7 @@ impl GpuContext {
     }
 
     async fn new_async(options: &GpuOptions) -> Result<GpuContext> {
-        let instance = instance_from_env();
-        let adapter = select_adapter(&instance, &options.adapter).await?;
+        let adapter = select_adapter(&options.adapter).await?;
         let report = AdapterReport::from_info(&adapter.get_info());
 
         let available = adapter.limits();

@@ -65,33 +65,27 @@ fn scenes_3d() -> Vec<Scene3d> {
     scenes
 }
 
-/// Every hash, by name, from `renderer` (CPU or GPU).
-pub fn hashes(renderer: &mut Renderer) -> Vec<(String, u64)> {
+/// Every hashed output, by name, from `renderer` (CPU or GPU): the `f32` words in the order they
+/// are hashed (images row by row, gradients vertex by vertex).
+pub fn outputs(renderer: &mut Renderer) -> Vec<(String, Vec<f32>)> {
     let mut out = Vec::new();
+    let vec2s = |g: &[Vec2]| g.iter().flat_map(|v| v.to_array()).collect::<Vec<f32>>();
+    let vec3s = |g: &[Vec3]| g.iter().flat_map(|v| v.to_array()).collect::<Vec<f32>>();
     for scene in scenes::all_2d() {
         let frame = renderer.render_screen(&scene.topology(), &[scene.view()]).unwrap();
-        let mut h = Hash::new();
-        h.floats(frame.images()[0].data().iter().copied());
-        out.push((format!("2d/{}/image", scene.name), h.0));
+        out.push((format!("2d/{}/image", scene.name), frame.images()[0].data().to_vec()));
         let d = weights(scene.width, scene.height, 1);
         let g = renderer.backward_screen(&frame, &[d]).unwrap();
-        let mut h = Hash::new();
-        h.vec2s(&g[0]);
-        out.push((format!("2d/{}/grad", scene.name), h.0));
+        out.push((format!("2d/{}/grad", scene.name), vec2s(&g[0])));
     }
     for scene in scenes_3d() {
         let frame = renderer.render(&scene.mesh, &scene.cameras).unwrap();
-        let mut h = Hash::new();
-        for image in frame.images() {
-            h.floats(image.data().iter().copied());
-        }
-        out.push((format!("3d/{}/images", scene.name), h.0));
+        let images = frame.images().iter().flat_map(|image| image.data().iter().copied()).collect();
+        out.push((format!("3d/{}/images", scene.name), images));
         let d: Vec<Image> =
             scene.cameras.iter().enumerate().map(|(k, c)| weights(c.width, c.height, k as u32)).collect();
         let g = renderer.backward(&frame, &d).unwrap();
-        let mut h = Hash::new();
-        h.vec3s(&g);
-        out.push((format!("3d/{}/grad", scene.name), h.0));
+        out.push((format!("3d/{}/grad", scene.name), vec3s(&g)));
         let moved = Mesh::with_topology(
             scene.mesh.positions().iter().map(|p| *p + Vec3::new(0.04, -0.03, 0.02)).collect(),
             scene.mesh.topology().clone(),
@@ -99,11 +93,21 @@ pub fn hashes(renderer: &mut Renderer) -> Vec<(String, u64)> {
         .unwrap();
         let targets = Targets::new(renderer.render(&moved, &scene.cameras).unwrap().images().to_vec()).unwrap();
         let step = renderer.squared_error_step(&scene.mesh, &scene.cameras, &targets).unwrap();
-        let mut h = Hash::new();
-        h.vec3s(&step.gradient);
-        out.push((format!("3d/{}/step_grad", scene.name), h.0));
+        out.push((format!("3d/{}/step_grad", scene.name), vec3s(&step.gradient)));
     }
     out
+}
+
+/// The hash of one output's words.
+pub fn hash_of(words: &[f32]) -> u64 {
+    let mut h = Hash::new();
+    h.floats(words.iter().copied());
+    h.0
+}
+
+/// Every hash, by name, from `renderer` (CPU or GPU).
+pub fn hashes(renderer: &mut Renderer) -> Vec<(String, u64)> {
+    outputs(renderer).into_iter().map(|(name, words)| (name, hash_of(&words))).collect()
 }
 
 pub fn compare(backend: &str, got: &[(String, u64)], want: &[(&str, u64)]) {
