@@ -71,7 +71,9 @@ E_sl is the mean squared error over all pixels of all views between the rendered
 silhouettes, both blurred by the same Gaussian, and E_prior = mean_j |θ_j|² a zero-mean prior on
 the joint offsets, μ = 2e-3 unblurred and 10 times that while blurred. Each of the three
 starting poses (rest, legs striding each way) runs 1/10 of the steps with a blur of 6% of the
-image height; the one with the lowest unblurred energy E continues: 1/20 of the steps at 6%,
+image height, on a coarse proxy of the mesh (its vertices clustered on a grid of 2% of the
+model's height, --coarse-proxy); the one with the lowest unblurred energy E continues: 1/20 of
+the steps at 6% (on the proxy too),
 1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
 steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
 back, both legs mirrored and the legs exchanged; the three lowest in energy as they are, and any
@@ -134,6 +136,11 @@ pub struct Options {
     /// pose's [default: SwapScreen::default, 3]
     #[arg(long, value_name = "X", value_parser = finite)]
     swap_within: Option<f32>,
+    /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
+    /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
+    /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    coarse_proxy: Option<f32>,
     /// Arm swing (radians) of the extra starting poses; 0: none
     #[arg(long, value_name = "X", default_value = "0", value_parser = finite)]
     arm_swing: f32,
@@ -288,6 +295,7 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_outline: o.outline.unwrap_or(defaults.fit_outline),
         outline_rate: o.outline_rate,
         swap_steps: o.swap_steps.unwrap_or(defaults.swap_steps),
+        coarse_proxy: o.coarse_proxy.unwrap_or(defaults.coarse_proxy),
         swap_screen: SwapScreen {
             lowest: o.swap_refined.unwrap_or(defaults.swap_screen.lowest),
             within: o.swap_within.map_or(defaults.swap_screen.within, f64::from),

@@ -23,6 +23,10 @@ mod priors;
 #[path = "silhouette.rs"]
 mod silhouette;
 use silhouette::{silhouette_loss, silhouette_pass};
+// The vertex subset the blurred steps render, in its own file.
+#[path = "proxy.rs"]
+mod proxy;
+use proxy::Proxy;
 // The limb swap test on a final pose, in its own file.
 #[path = "swap.rs"]
 mod swap;
@@ -101,6 +105,10 @@ pub struct PoseFit {
     lambda: f32,
     params: Vec<f32>,
     mesh: Mesh,
+    /// The vertex subset the steps blurred by at least `proxy_min_blur` render
+    /// ([`PoseFit::set_coarse_proxy`]); `None`: the whole mesh.
+    proxy: Option<Proxy>,
+    proxy_min_blur: f32,
     /// Blur as a fraction of the image height, one filter per view, and the blurred targets.
     blur: f32,
     blurs: Vec<GaussianBlur>,
@@ -237,6 +245,8 @@ impl PoseFit {
             adam: Adam::new(learning_rate),
             lambda,
             mesh,
+            proxy: None,
+            proxy_min_blur: 0.0,
             blur: 0.0,
             pixel_weight: if pixels > 0.0 { 1.0 / pixels } else { 1.0 },
             pose_prior: 0.0,
@@ -390,6 +400,44 @@ impl PoseFit {
         self.blur
     }
 
+    /// Makes the steps blurred by `min_blur` or more (a fraction of the image height, finite
+    /// and ≥ 0; never an unblurred step) render a coarse proxy of the mesh, or every step the
+    /// whole mesh again (`None`): the mesh's vertices clustered on a grid of cubes of side `cell`
+    /// (world units, finite and > 0) in the rest pose, one vertex kept per cube and dominant
+    /// joint, and the triangles between three kept vertices. The proxy's vertices are the mesh's
+    /// own, so the skinning and its gradient are unchanged; such a step's silhouette gradient
+    /// reaches only the kept vertices, and its self-intersection check (when due) runs on the
+    /// proxy's triangles. Unblurred steps, [`PoseFit::energy`] and the renders always use the
+    /// whole mesh. Returns the proxy's vertex and triangle counts (0, 0 for `None`).
+    pub fn set_coarse_proxy(&mut self, cell: Option<f32>, min_blur: f32) -> Result<(usize, usize)> {
+        if !(min_blur.is_finite() && min_blur >= 0.0) {
+            return Err(Error::InvalidSettings(format!("the proxy's least blur must be ≥ 0, got {min_blur}")));
+        }
+        self.proxy = cell.map(|cell| Proxy::cluster(&self.model, cell)).transpose()?;
+        self.proxy_min_blur = min_blur;
+        Ok(self.proxy.as_ref().map_or((0, 0), |p| (p.vertex_count(), p.triangle_count())))
+    }
+
+    /// Whether the next step renders the proxy: one is set and the blur is on and at least the
+    /// proxy's least blur.
+    fn proxy_in_use(&self) -> bool {
+        self.proxy.is_some() && self.blur > 0.0 && self.blur >= self.proxy_min_blur
+    }
+
+    /// The proxy when the next step renders it.
+    fn active_proxy(&self) -> Option<&Proxy> {
+        self.proxy.as_ref().filter(|_| self.proxy_in_use())
+    }
+
+    /// The mesh the next step renders: the proxy at the rendered positions while it is active,
+    /// else the whole rendered mesh.
+    fn rendered_mesh(&self) -> Result<Mesh> {
+        match self.active_proxy() {
+            Some(proxy) => proxy.mesh(self.mesh.positions()),
+            None => Ok(self.mesh.clone()),
+        }
+    }
+
     /// Blurs the silhouettes that `E_sl` compares by a Gaussian of standard deviation
     /// `fraction` × each view's image height (0: no blur). Errors on a negative or non-finite
     /// fraction, or one above 1.
@@ -479,8 +527,15 @@ impl PoseFit {
         };
         let check = lambda > 0.0 && !stale;
         let outline = self.outline_setting();
+        let proxy_mesh = match (&pass, self.active_proxy()) {
+            (None, Some(proxy)) => Some(proxy.mesh(self.mesh.positions())?),
+            _ => None,
+        };
+        // A blurred step with a proxy checks the proxy for self-intersection.
+        let use_proxy = self.proxy_in_use();
+        let proxy = self.proxy.as_mut().filter(|_| use_proxy);
         let checker = &mut self.checker;
-        let (renderer, mesh, cameras) = (&mut self.renderer, &self.mesh, &self.cameras);
+        let (renderer, mesh, cameras) = (&mut self.renderer, proxy_mesh.as_ref().unwrap_or(&self.mesh), &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
         let (silhouette_pass, intersection) = rayon::join(
             || match pass {
@@ -490,10 +545,19 @@ impl PoseFit {
             || match (check, checked) {
                 (false, _) => Ok(None),
                 (true, Some(result)) => Ok(Some(result)),
-                (true, None) => checker.check(&vertices).map(Some),
+                (true, None) => match proxy {
+                    Some(proxy) => proxy.check(&vertices).map(Some),
+                    None => checker.check(&vertices).map(Some),
+                },
             },
         );
-        let (silhouette, mut d_vertices, d_outline) = silhouette_pass?;
+        let (silhouette, d_vertices, d_outline) = silhouette_pass?;
+        // A blurred step with a proxy rendered its vertex subset (here, or in the hypotheses'
+        // batch): the other vertices' gradient is zero.
+        let mut d_vertices = match self.active_proxy() {
+            Some(proxy) => proxy.scatter(&d_vertices),
+            None => d_vertices,
+        };
         // With the normals held constant, ∂v'_i/∂v_i is the identity: the rendered vertices'
         // gradient is the skinned vertices'.
         let d_inflation = match (&normals, self.inflation_rate > 0.0) {

@@ -70,7 +70,7 @@ impl PoseFit {
                 self.set_state(state.clone())?;
                 let (vertices, _) = self.model.skin_shaped_with_cache(&self.pose(), self.shape())?;
                 self.set_rendered_positions(&vertices)?;
-                meshes.push(self.mesh.clone());
+                meshes.push(self.rendered_mesh()?);
                 outlines.push(self.outline_setting());
                 checks.push(self.check_due().then_some(vertices));
             }
@@ -139,8 +139,14 @@ impl PoseFit {
         outlines: &[Option<f32>],
         checks: &[Option<Vec<Vec3>>],
     ) -> Result<(Vec<(f64, Vec<Vec3>, f64)>, Vec<Option<SelfIntersection>>)> {
+        let use_proxy = self.proxy_in_use();
+        let mut proxy = self.proxy.as_mut().filter(|_| use_proxy);
         let (renderer, checker, cameras) = (&mut self.renderer, &mut self.checker, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
+        let mut check = move |v: &Vec<Vec3>| match proxy.as_deref_mut() {
+            Some(proxy) => proxy.check(v),
+            None => checker.check(v),
+        };
         let (passes, checked) = rayon::join(
             || -> Result<Vec<(f64, Vec<Vec3>, f64)>> {
                 let instances: Vec<Instance<'_>> = meshes.iter().map(|mesh| Instance { mesh, cameras }).collect();
@@ -156,7 +162,7 @@ impl PoseFit {
                 let grads = renderer.backward_batch(&frame, &d_images)?;
                 Ok(losses.into_iter().zip(grads).map(|((loss, d_outline), grad)| (loss, grad, d_outline)).collect())
             },
-            || checks.iter().map(|v| v.as_ref().map(|v| checker.check(v)).transpose()).collect::<Result<Vec<_>>>(),
+            || checks.iter().map(|v| v.as_ref().map(&mut check).transpose()).collect::<Result<Vec<_>>>(),
         );
         Ok((passes?, checked?))
     }

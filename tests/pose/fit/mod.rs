@@ -7,6 +7,7 @@ mod inflation;
 mod interval;
 mod outline;
 mod prior_scale;
+mod proxy;
 mod swap;
 
 use std::ops::ControlFlow;
