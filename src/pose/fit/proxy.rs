@@ -37,7 +37,8 @@ pub(in crate::pose::fit) struct Proxy {
 
 impl Proxy {
     /// Clusters `model`'s rest-pose vertices on a grid of cubes of side `cell` (world units,
-    /// finite and > 0) by cube and dominant joint, keeps the vertex nearest each cluster's
+    /// finite and > 0; taken as 2⁻³² of the mesh's extent where it is smaller) by cube and
+    /// dominant joint, keeps the vertex nearest each cluster's
     /// centroid (the lowest index on a tie) and the triangles whose corners fall in three
     /// clusters (each once, whatever its winding).
     pub fn cluster(model: &SkinnedMesh, cell: f32) -> Result<Proxy> {
@@ -46,6 +47,10 @@ impl Proxy {
         }
         let positions = model.mesh.positions();
         let origin = positions.iter().fold(Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
+        let extent = positions.iter().fold(Vec3::ZERO, |a, p| a.max(*p - origin)).max_element();
+        // Below 2⁻³² of the extent every vertex is its own cluster anyway (f32 positions that
+        // close are equal but for denormals); the cell indices then fit an i64.
+        let cell = cell.max(extent * 2f32.powi(-32));
         let dominant = |i: usize| {
             let (w, j) = (model.weights[i], model.joints[i]);
             let k = (0..4).fold(0, |best, k| if w[k] > w[best] { k } else { best });
@@ -165,9 +170,11 @@ mod tests {
     #[test]
     fn a_cell_smaller_than_any_edge_keeps_the_whole_mesh() {
         let body = crate::pose::makehuman_body().unwrap();
-        let proxy = Proxy::cluster(&body, 1e-5 * height(&body)).unwrap();
-        assert_eq!(proxy.kept, (0..body.vertex_count() as u32).collect::<Vec<_>>());
-        assert_eq!(proxy.topology.triangles(), body.mesh.triangles());
+        for cell in [1e-5 * height(&body), 1e-30, f32::MIN_POSITIVE] {
+            let proxy = Proxy::cluster(&body, cell).unwrap();
+            assert_eq!(proxy.kept, (0..body.vertex_count() as u32).collect::<Vec<_>>(), "{cell}");
+            assert_eq!(proxy.topology.triangles(), body.mesh.triangles(), "{cell}");
+        }
     }
 
     #[test]
