@@ -267,7 +267,9 @@ pub fn fit(
     }
     let mut fit = PoseFit::new(model, cameras, targets, renderer, settings)?;
     if options.coarse_proxy > 0.0 {
-        fit.set_coarse_proxy(Some(options.coarse_proxy * height), options.coarse_blur)?;
+        // The starting poses and the first stage run at its blur (0 without blur: no proxy).
+        let coarsest = schedule.stages.first().map_or(0.0, |s| s.blur);
+        fit.set_coarse_proxy(Some(options.coarse_proxy * height), coarsest)?;
     }
     fit.set_pose_prior(options.pose_prior)?;
     fit.set_intersection_interval(options.intersection_interval)?;
