@@ -23,10 +23,14 @@ mod priors;
 #[path = "silhouette.rs"]
 mod silhouette;
 use silhouette::{silhouette_loss, silhouette_pass};
-// The vertex subset the blurred steps render, in its own file.
+// The vertex subset the coarsest steps render, and its settings, in its own file.
 #[path = "proxy.rs"]
 mod proxy;
 use proxy::Proxy;
+// The optimiser's state, taken out and put back (hypotheses, swap test), in its own file.
+#[path = "state.rs"]
+mod state;
+pub use state::FitState;
 // The limb swap test on a final pose, in its own file.
 #[path = "swap.rs"]
 mod swap;
@@ -50,22 +54,6 @@ pub struct StepReport {
     /// The energy the step descends: `E_sl + λ·surrogate + μ·E_prior + ν·E_shape` (with the
     /// step's blur).
     pub energy: f64,
-}
-
-/// The optimiser's state: the pose parameters, Adam's moments, the nuisances and the last
-/// self-intersection check. [`PoseFit::state`] and
-/// [`PoseFit::set_state`] move it in and out, so that one fit can follow several hypotheses.
-#[derive(Clone, Debug)]
-pub struct FitState {
-    params: Vec<f32>,
-    adam: Adam,
-    inflation: f32,
-    inflation_adam: Adam,
-    outline: f32,
-    outline_adam: Adam,
-    /// The last self-intersection check and the steps since (reused between checks): part of
-    /// the state so that hypotheses stepped in lock-step each keep their own.
-    intersection: Option<(SelfIntersection, u32)>,
 }
 
 /// How a [`PoseFit`] starts: the initial pose and the optimiser's settings.
@@ -309,62 +297,6 @@ impl PoseFit {
         &self.renderer
     }
 
-    /// The optimiser's state (pose parameters and Adam's moments).
-    pub fn state(&self) -> FitState {
-        FitState {
-            params: self.params.clone(),
-            adam: self.adam.clone(),
-            inflation: self.inflation,
-            inflation_adam: self.inflation_adam.clone(),
-            outline: self.outline,
-            outline_adam: self.outline_adam.clone(),
-            intersection: self.intersection.clone(),
-        }
-    }
-
-    /// Restores a state taken by [`PoseFit::state`] from this fit.
-    pub fn set_state(&mut self, state: FitState) -> Result<()> {
-        if state.params.len() != self.params.len() {
-            return Err(Error::LengthMismatch {
-                what: "fit state parameters",
-                expected: self.params.len(),
-                got: state.params.len(),
-            });
-        }
-        self.params = state.params;
-        self.adam = state.adam;
-        self.inflation = state.inflation;
-        self.inflation_adam = state.inflation_adam;
-        self.outline = state.outline;
-        self.outline_adam = state.outline_adam;
-        self.intersection = state.intersection;
-        Ok(())
-    }
-
-    /// Moves to `pose`, the initial shape and no inflation, and forgets Adam's moments (a fresh start from
-    /// there). Errors when `pose` does not fit the skeleton or carries joint translations where
-    /// the fit's initial pose did not (or the other way round).
-    pub fn restart(&mut self, pose: &Pose) -> Result<()> {
-        pose.validate(self.model.joint_count())?;
-        let mut params = pose.to_params();
-        if params.len() != self.pose_len {
-            return Err(Error::LengthMismatch {
-                what: "restart pose parameters",
-                expected: self.pose_len,
-                got: params.len(),
-            });
-        }
-        params.extend_from_slice(&self.initial_shape);
-        self.params = params;
-        self.adam = Adam::new(self.adam.learning_rate);
-        self.inflation = 0.0;
-        self.inflation_adam = Adam::new(self.inflation_adam.learning_rate);
-        self.outline = 0.0;
-        self.outline_adam = Adam::new(self.outline_adam.learning_rate);
-        self.intersection = None;
-        Ok(())
-    }
-
     /// Sets Adam's learning rate (a positive number).
     pub fn set_learning_rate(&mut self, learning_rate: f32) -> Result<()> {
         if !(learning_rate.is_finite() && learning_rate > 0.0) {
@@ -398,44 +330,6 @@ impl PoseFit {
     /// The current blur, as a fraction of the image height.
     pub fn blur(&self) -> f32 {
         self.blur
-    }
-
-    /// Makes the steps blurred by `min_blur` or more (a fraction of the image height, finite
-    /// and ≥ 0; never an unblurred step) render a coarse proxy of the mesh, or every step the
-    /// whole mesh again (`None`): the mesh's vertices clustered on a grid of cubes of side `cell`
-    /// (world units, finite and > 0) in the rest pose, one vertex kept per cube and dominant
-    /// joint, and the triangles between three kept vertices. The proxy's vertices are the mesh's
-    /// own, so the skinning and its gradient are unchanged; such a step's silhouette gradient
-    /// reaches only the kept vertices, and its self-intersection check (when due) runs on the
-    /// proxy's triangles. Unblurred steps, [`PoseFit::energy`] and the renders always use the
-    /// whole mesh. Returns the proxy's vertex and triangle counts (0, 0 for `None`).
-    pub fn set_coarse_proxy(&mut self, cell: Option<f32>, min_blur: f32) -> Result<(usize, usize)> {
-        if !(min_blur.is_finite() && min_blur >= 0.0) {
-            return Err(Error::InvalidSettings(format!("the proxy's least blur must be ≥ 0, got {min_blur}")));
-        }
-        self.proxy = cell.map(|cell| Proxy::cluster(&self.model, cell)).transpose()?;
-        self.proxy_min_blur = min_blur;
-        Ok(self.proxy.as_ref().map_or((0, 0), |p| (p.vertex_count(), p.triangle_count())))
-    }
-
-    /// Whether the next step renders the proxy: one is set and the blur is on and at least the
-    /// proxy's least blur.
-    fn proxy_in_use(&self) -> bool {
-        self.proxy.is_some() && self.blur > 0.0 && self.blur >= self.proxy_min_blur
-    }
-
-    /// The proxy when the next step renders it.
-    fn active_proxy(&self) -> Option<&Proxy> {
-        self.proxy.as_ref().filter(|_| self.proxy_in_use())
-    }
-
-    /// The mesh the next step renders: the proxy at the rendered positions while it is active,
-    /// else the whole rendered mesh.
-    fn rendered_mesh(&self) -> Result<Mesh> {
-        match self.active_proxy() {
-            Some(proxy) => proxy.mesh(self.mesh.positions()),
-            None => Ok(self.mesh.clone()),
-        }
     }
 
     /// Blurs the silhouettes that `E_sl` compares by a Gaussian of standard deviation

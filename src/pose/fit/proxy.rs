@@ -18,6 +18,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::PoseFit;
 use crate::pose::self_intersection::{SelfIntersection, SelfIntersectionChecker};
 use crate::pose::skin::SkinnedMesh;
 use crate::{Error, Mesh, Result, Topology};
@@ -150,6 +151,46 @@ impl Proxy {
             full[v as usize] = *g;
         }
         full
+    }
+}
+
+impl PoseFit {
+    /// Makes the steps blurred by `min_blur` or more (a fraction of the image height, finite
+    /// and ≥ 0; never an unblurred step) render a coarse proxy of the mesh, or every step the
+    /// whole mesh again (`None`): the mesh's vertices clustered on a grid of cubes of side `cell`
+    /// (world units, finite and > 0) in the rest pose, one vertex kept per cube and dominant
+    /// joint, and the triangles between three kept vertices. The proxy's vertices are the mesh's
+    /// own, so the skinning and its gradient are unchanged; such a step's silhouette gradient
+    /// reaches only the kept vertices, and its self-intersection check (when due) runs on the
+    /// proxy's triangles. Unblurred steps, [`PoseFit::energy`] and the renders always use the
+    /// whole mesh. Returns the proxy's vertex and triangle counts (0, 0 for `None`).
+    pub fn set_coarse_proxy(&mut self, cell: Option<f32>, min_blur: f32) -> Result<(usize, usize)> {
+        if !(min_blur.is_finite() && min_blur >= 0.0) {
+            return Err(Error::InvalidSettings(format!("the proxy's least blur must be ≥ 0, got {min_blur}")));
+        }
+        self.proxy = cell.map(|cell| Proxy::cluster(&self.model, cell)).transpose()?;
+        self.proxy_min_blur = min_blur;
+        Ok(self.proxy.as_ref().map_or((0, 0), |p| (p.vertex_count(), p.triangle_count())))
+    }
+
+    /// Whether the next step renders the proxy: one is set and the blur is on and at least the
+    /// proxy's least blur.
+    pub(super) fn proxy_in_use(&self) -> bool {
+        self.proxy.is_some() && self.blur > 0.0 && self.blur >= self.proxy_min_blur
+    }
+
+    /// The proxy when the next step renders it.
+    pub(super) fn active_proxy(&self) -> Option<&Proxy> {
+        self.proxy.as_ref().filter(|_| self.proxy_in_use())
+    }
+
+    /// The mesh the next step renders: the proxy at the rendered positions while it is active,
+    /// else the whole rendered mesh.
+    pub(super) fn rendered_mesh(&self) -> Result<Mesh> {
+        match self.active_proxy() {
+            Some(proxy) => proxy.mesh(self.mesh.positions()),
+            None => Ok(self.mesh.clone()),
+        }
     }
 }
 
