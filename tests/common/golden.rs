@@ -25,12 +25,6 @@ impl Hash {
             self.word(x.to_bits());
         }
     }
-    pub fn vec2s(&mut self, xs: &[Vec2]) {
-        self.floats(xs.iter().flat_map(|v| v.to_array()));
-    }
-    pub fn vec3s(&mut self, xs: &[Vec3]) {
-        self.floats(xs.iter().flat_map(|v| v.to_array()));
-    }
     pub fn f64(&mut self, x: f64) {
         let bits = x.to_bits();
         self.word(bits as u32);

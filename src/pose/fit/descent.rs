@@ -26,7 +26,7 @@ use silhouette::{silhouette_loss, silhouette_pass};
 // The vertex subset the coarsest steps render, and its settings, in its own file.
 #[path = "proxy.rs"]
 mod proxy;
-use proxy::Proxy;
+use proxy::{check_self_intersection, Proxy};
 // The optimiser's state, taken out and put back (hypotheses, swap test), in its own file.
 #[path = "state.rs"]
 mod state;
@@ -439,10 +439,7 @@ impl PoseFit {
             || match (check, checked) {
                 (false, _) => Ok(None),
                 (true, Some(result)) => Ok(Some(result)),
-                (true, None) => match proxy {
-                    Some(proxy) => proxy.check(&vertices).map(Some),
-                    None => checker.check(&vertices).map(Some),
-                },
+                (true, None) => check_self_intersection(proxy, checker, &vertices).map(Some),
             },
         );
         let (silhouette, d_vertices, d_outline) = silhouette_pass?;

@@ -17,7 +17,7 @@
 
 use glam::Vec3;
 
-use super::{silhouette_loss, FitState, PoseFit, StepReport};
+use super::{check_self_intersection, silhouette_loss, FitState, PoseFit, StepReport};
 use crate::pose::self_intersection::SelfIntersection;
 use crate::pose::skin::Pose;
 use crate::{Image, Instance, Mesh, Result};
@@ -143,10 +143,7 @@ impl PoseFit {
         let mut proxy = self.proxy.as_mut().filter(|_| use_proxy);
         let (renderer, checker, cameras) = (&mut self.renderer, &mut self.checker, &self.cameras);
         let (targets, blurs, pixel_weight) = (&self.blurred_targets, &self.blurs, self.pixel_weight);
-        let mut check = move |v: &Vec<Vec3>| match proxy.as_deref_mut() {
-            Some(proxy) => proxy.check(v),
-            None => checker.check(v),
-        };
+        let mut check = move |v: &Vec<Vec3>| check_self_intersection(proxy.as_deref_mut(), checker, v);
         let (passes, checked) = rayon::join(
             || -> Result<Vec<(f64, Vec<Vec3>, f64)>> {
                 let instances: Vec<Instance<'_>> = meshes.iter().map(|mesh| Instance { mesh, cameras }).collect();

@@ -117,8 +117,8 @@ impl Proxy {
         self.topology.triangles().len()
     }
 
-    /// The proxy mesh at the full mesh's `vertices` (its kept vertices' positions).
-    pub fn mesh(&self, vertices: &[Vec3]) -> Result<Mesh> {
+    /// The kept vertices' positions among the full mesh's `vertices`.
+    fn gather(&self, vertices: &[Vec3]) -> Result<Vec<Vec3>> {
         if vertices.len() != self.full_count {
             return Err(Error::InvalidSettings(format!(
                 "proxy of a {}-vertex mesh given {} vertices",
@@ -126,7 +126,12 @@ impl Proxy {
                 vertices.len()
             )));
         }
-        Mesh::with_topology(self.kept.iter().map(|&v| vertices[v as usize]).collect(), Arc::clone(&self.topology))
+        Ok(self.kept.iter().map(|&v| vertices[v as usize]).collect())
+    }
+
+    /// The proxy mesh at the full mesh's `vertices` (its kept vertices' positions).
+    pub fn mesh(&self, vertices: &[Vec3]) -> Result<Mesh> {
+        Mesh::with_topology(self.gather(vertices)?, Arc::clone(&self.topology))
     }
 
     /// The self-intersection check of the proxy at the full mesh's `vertices`, in the full
@@ -134,8 +139,7 @@ impl Proxy {
     /// mesh's indices. `penalty` and `surrogate` are the proxy's (means over its vertices, which
     /// stand for the mesh's).
     pub fn check(&mut self, vertices: &[Vec3]) -> Result<SelfIntersection> {
-        let mesh = self.mesh(vertices)?;
-        let mut result = self.checker.check(mesh.positions())?;
+        let mut result = self.checker.check(&self.gather(vertices)?)?;
         result.grad = self.scatter(&result.grad);
         for v in &mut result.inside_vertices {
             *v = self.kept[*v as usize];
@@ -151,6 +155,19 @@ impl Proxy {
             full[v as usize] = *g;
         }
         full
+    }
+}
+
+/// The self-intersection check of the skinned `vertices`: on `proxy` when a step renders one,
+/// else on the whole mesh with `checker`.
+pub(super) fn check_self_intersection(
+    proxy: Option<&mut Proxy>,
+    checker: &mut SelfIntersectionChecker,
+    vertices: &[Vec3],
+) -> Result<SelfIntersection> {
+    match proxy {
+        Some(proxy) => proxy.check(vertices),
+        None => checker.check(vertices),
     }
 }
 
