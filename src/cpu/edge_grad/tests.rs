@@ -218,3 +218,25 @@ fn same_bits_as_the_reference() {
     }
     assert!(hidden > 100, "too few hidden segments ({hidden}) to test the early exit");
 }
+
+#[test]
+fn inline_floor_and_ceil_equal_the_standard_ones() {
+    let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 63.999_999, 64.0, 1e-300, -1e-300];
+    values.extend([
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::MAX,
+        f64::MIN,
+        4_503_599_627_370_495.5,
+        -4_503_599_627_370_495.5,
+    ]);
+    values.extend([4_503_599_627_370_496.0, 9.3e18, -9.3e18, 1e30, f64::MIN_POSITIVE, f64::EPSILON]);
+    let mut rng = crate::random::SplitMix64::new(3);
+    values.extend((0..10_000).map(|_| rng.range(-1e4, 1e4) as f64));
+    for x in values {
+        assert_eq!(floor(x), x.floor(), "floor({x:e})");
+        assert_eq!(ceil(x), x.ceil(), "ceil({x:e})");
+        assert_eq!(floor(x) as i64, x.floor() as i64, "floor({x:e}) as i64");
+    }
+    assert!(floor(f64::NAN).is_nan() && ceil(f64::NAN).is_nan());
+}
