@@ -76,7 +76,7 @@ model's height, --coarse-proxy); the one with the lowest unblurred energy E cont
 the steps at 6% (on the proxy too),
 1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
 steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
-back, both legs mirrored and the legs exchanged; the three lowest in energy as they are, and any
+back, both legs mirrored and the legs exchanged; the lowest in energy as it is, and any
 within 3 times the pose's energy, refined 10 steps beside the pose and kept where the energy ends
 lower (--swap-steps, --swap-refined, --swap-within). Same method and settings at every resolution
 and F."
@@ -129,7 +129,7 @@ pub struct Options {
     #[arg(long, value_name = "K")]
     swap_steps: Option<u32>,
     /// Swap candidates refined: this many of the lowest in energy as they are (a number at
-    /// least the candidates' refines all, unscreened) [default: SwapScreen::default, 3]
+    /// least the candidates' refines all, unscreened) [default: SwapScreen::default, 1]
     #[arg(long, value_name = "K")]
     swap_refined: Option<usize>,
     /// Swap candidates refined besides: any whose energy as it is is at most X times the

@@ -87,7 +87,7 @@ pub struct FitOptions {
     pub coarse_proxy: f32,
     /// Which swap candidates take the refinement steps, by their energy as they are
     /// ([`SwapScreen`]; [`SwapScreen::ALL`] refines every one). Default
-    /// [`SwapScreen::default`]: the three lowest and any within three times the pose's energy.
+    /// [`SwapScreen::default`]: the lowest and any within three times the pose's energy.
     pub swap_screen: SwapScreen,
 }
 

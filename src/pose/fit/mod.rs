@@ -99,13 +99,13 @@
 //!    also swung 40° forward and 40° back (an arm fitted alongside the torso where the target's
 //!    reaches forward is hidden in the side views and gets no gradient to come out). The six to
 //!    ten candidates are screened by their energy as they are (one render batch with the pose's,
-//!    [`SwapScreen`]): the three lowest and any within three times the pose's energy take 10
+//!    [`SwapScreen`]): the lowest and any within three times the pose's energy take 10
 //!    unblurred steps beside the pose, in one batch per step, and a candidate replaces the pose
 //!    only where its energy then ends lower. A state's steps do not depend on the others in its
 //!    batch, so the screen changes a fit only where it leaves out the candidate the full test
-//!    would keep: over 386 fits of four models and four kinds of mask it never does, and it
-//!    refines 3.5 candidates of 8.1 on average (see the README). Two lowest alone, tried earlier
-//!    with the energies taken one by one, lost two swaps and saved nothing.
+//!    would keep: over the 406 fits of the README's evaluation (four models, four kinds of mask)
+//!    it never does (see the README). Two lowest alone, tried earlier with the energies taken
+//!    one by one, lost two swaps and saved nothing.
 //!
 //! 10. **A coarse proxy at the coarsest blur** ([`FitOptions::coarse_proxy`],
 //!     [`PoseFit::set_coarse_proxy`]): the starting poses and the first stage compare
