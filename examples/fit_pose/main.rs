@@ -75,7 +75,10 @@ image height, on a coarse proxy of the mesh (its vertices clustered on a grid of
 model's height, --coarse-proxy); the one with the lowest unblurred energy E continues: 1/20 of
 the steps at 6% (on the proxy too),
 1/12 at 3%, the rest (170 of 300) unblurred, ending early once the mean energy of the last 25
-steps is less than 0.5% below that of the 25 before. Then the swap test: each leg and arm mirrored front to
+steps is less than 0.5% below that of the 25 before. An outline nuisance a (--outline) grows or
+shrinks every render by up to one pixel before it is compared, so that masks a pixel too fat or
+too thin do not twist the pose (--outline-settle X drops it for the unblurred steps when the
+blurred ones end with |a| below X). Then the swap test: each leg and arm mirrored front to
 back, both legs mirrored and the legs exchanged; the lowest in energy as it is, and any
 within 3 times the pose's energy, refined 10 steps beside the pose and kept where the energy ends
 lower (--swap-steps, --swap-refined, --swap-within). Same method and settings at every resolution
@@ -178,6 +181,11 @@ pub struct Options {
     /// Step of the outline nuisance per Adam step (it spans [−1, 1])
     #[arg(long, value_name = "X", default_value_t = FitOptions::OUTLINE_RATE, value_parser = finite)]
     outline_rate: f32,
+    /// The unblurred steps drop the outline nuisance (a = 0, no longer fitted) when the blurred
+    /// ones end with |a| below this, e.g. 0.1 (0.8 times the time with exact masks); 0 keeps
+    /// it (FitOptions::outline_settle)
+    #[arg(long, value_name = "X", default_value_t = 0.0, value_parser = finite)]
+    outline_settle: f32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -294,6 +302,7 @@ fn fit_options(o: &Options) -> FitOptions {
         inflation_rate: o.inflation_rate,
         fit_outline: o.outline.unwrap_or(defaults.fit_outline),
         outline_rate: o.outline_rate,
+        outline_settle: o.outline_settle,
         swap_steps: o.swap_steps.unwrap_or(defaults.swap_steps),
         coarse_proxy: o.coarse_proxy.unwrap_or(defaults.coarse_proxy),
         swap_screen: SwapScreen {

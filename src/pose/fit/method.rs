@@ -74,6 +74,20 @@ pub struct FitOptions {
     /// Step size of `a` per Adam step, > 0 ([`PoseFit::set_outline_rate`]). Default
     /// [`FitOptions::OUTLINE_RATE`].
     pub outline_rate: f32,
+    /// When the blurred stages end with the outline `|a|` below this, the unblurred stage drops
+    /// it (`a` = 0, no longer fitted; [`Stage::outline_settle`]), finite and ≥ 0; 0 keeps it;
+    /// a fit without blur always keeps it. Default 0.
+    ///
+    /// Masks a pixel too fat or too thin take `a` to ±1 within the blurred stages, exact ones
+    /// leave it within a few hundredths of 0 (0.03 at most over MakeHuman seeds 1–10 and
+    /// built-in seeds 31–40). An outline that small changes the comparison by a hundredth of a
+    /// pixel's coverage, but a render outlined by any `a ≠ 0` differs from its target along
+    /// every contour, so the renderer's backward visits every contour segment. With 0.1 a
+    /// MakeHuman fit of exact masks takes 0.8 times the time, and dilated and eroded masks fit
+    /// as before; but the fits of exact masks end elsewhere within their spread, and on the
+    /// built-in figure two of seeds 31–80 then keep a wrong limb swap (p90 6.9 → 12.1 mm; the
+    /// README's evaluation has the table), so the default keeps the outline.
+    pub outline_settle: f32,
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
     /// mirrored front to back (an arm near the body's plane also swung forward and back), the
     /// legs exchanged, each candidate and the pose refined this many
@@ -114,6 +128,7 @@ impl Default for FitOptions {
             inflation_rate: FitOptions::INFLATION_RATE,
             fit_outline: FitOptions::FIT_OUTLINE,
             outline_rate: FitOptions::OUTLINE_RATE,
+            outline_settle: 0.0,
             swap_steps: FitOptions::SWAP_STEPS,
             swap_screen: SwapScreen::default(),
             coarse_proxy: FitOptions::COARSE_PROXY,
@@ -149,9 +164,10 @@ impl FitOptions {
     ///
     /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
     /// top of the initial pose (its joint offsets added to each), and the schedule is
-    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur` and the blurred
-    /// stages' prior scale set to `coarse_prior_scale`. Without blur: one unblurred stage from
-    /// the initial pose. Without `fit_pose`, the initial pose alone.
+    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur`, the blurred
+    /// stages' prior scale set to `coarse_prior_scale` and the unblurred stage's outline settle
+    /// to `outline_settle`. Without blur: one unblurred stage from the initial pose, which keeps
+    /// the outline. Without `fit_pose`, the initial pose alone.
     pub fn plan(&self, model: &SkinnedMesh) -> Result<(Schedule, Vec<Pose>)> {
         let initial = self.initial.clone().unwrap_or_else(|| Pose::rest(model.joint_count()));
         initial.validate(model.joint_count())?;
@@ -165,6 +181,12 @@ impl FitOptions {
             return Err(Error::InvalidSettings(format!(
                 "need a non-negative coarse prior scale, got {}",
                 self.coarse_prior_scale
+            )));
+        }
+        if !(self.outline_settle.is_finite() && self.outline_settle >= 0.0) {
+            return Err(Error::InvalidSettings(format!(
+                "need a finite, non-negative outline settle, got {}",
+                self.outline_settle
             )));
         }
         if !(self.leg_stride.is_finite() && self.arm_swing.is_finite()) {
@@ -192,6 +214,8 @@ impl FitOptions {
             stage.blur *= scale;
             if stage.blur > 0.0 {
                 stage.prior_scale = self.coarse_prior_scale;
+            } else {
+                stage.outline_settle = self.outline_settle;
             }
         }
         schedule.convergence = self.convergence;

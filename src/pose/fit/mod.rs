@@ -80,7 +80,11 @@
 //!    forearm vanish), and with both on, `d` takes the offset first. The fitted pose and
 //!    vertices exclude both. Cost: a render outlined by any `a` ≠ 0 disagrees with a clean
 //!    target along every contour, so the renderer's backward visits every contour segment; on
-//!    the MakeHuman body a fit takes about 1.4 times the CPU time with the outline as without.
+//!    the MakeHuman body a fit took about 1.4 times the CPU time with the outline as without.
+//!    Exact masks leave `a` within a few hundredths of 0 when the blur ends and masks a pixel
+//!    off take it near ±1; [`FitOptions::outline_settle`] (off by default) drops an outline
+//!    settled below it for the unblurred stage, 0.8 times the time of a MakeHuman fit, at a
+//!    cost on the built-in figure's tail (see there).
 //! 7. **Early stop:** the last (unblurred) stage ends when the mean energy of its last 25 steps
 //!    is less than 0.5% below that of the 25 before ([`Convergence`]); means over windows, not
 //!    single steps, so that Adam's noise and the jump where the blur changes do not end it.

@@ -8,8 +8,9 @@ use crate::pose::skin::Pose;
 use crate::{Error, Result};
 
 /// One stage of a [`Schedule`]: this many steps with the silhouettes blurred by a Gaussian of
-/// standard deviation `blur` × the image height, and the pose prior's weight `μ` multiplied by
-/// `prior_scale`.
+/// standard deviation `blur` × the image height, the pose prior's weight `μ` multiplied by
+/// `prior_scale`, and the outline nuisance dropped at its start when it has settled below
+/// `outline_settle`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stage {
     /// Standard deviation of the blur, as a fraction of the image height (0: no blur).
@@ -19,12 +20,19 @@ pub struct Stage {
     /// The pose prior's weight during the stage, as a multiple of the fit's `μ`
     /// ([`PoseFit::set_pose_prior`]), finite and ≥ 0; 1 keeps `μ`.
     pub prior_scale: f32,
+    /// At the start of the stage, a fitted outline nuisance ([`PoseFit::outline`]) with `|a|`
+    /// below this is dropped: `a` is set to 0 and no longer fitted (its rate set to 0,
+    /// [`PoseFit::set_outline_rate`]) for the rest of the run and after it. Finite and ≥ 0; 0
+    /// keeps the outline as it is. See [`FitOptions::outline_settle`](super::FitOptions::outline_settle)
+    /// for why and what it costs.
+    pub outline_settle: f32,
 }
 
 impl Stage {
-    /// `steps` steps at `blur`, with the fit's own pose prior weight (`prior_scale` 1).
+    /// `steps` steps at `blur`, with the fit's own pose prior weight (`prior_scale` 1) and the
+    /// outline kept (`outline_settle` 0).
     pub fn new(blur: f32, steps: u32) -> Stage {
-        Stage { blur, steps, prior_scale: 1.0 }
+        Stage { blur, steps, prior_scale: 1.0, outline_settle: 0.0 }
     }
 }
 
@@ -118,8 +126,8 @@ impl Schedule {
             convergence: None,
             hypothesis_steps,
             stages: vec![
-                Stage { blur: Self::COARSE_BLUR, steps: coarse, prior_scale: Self::COARSE_PRIOR_SCALE },
-                Stage { blur: Self::COARSE_BLUR / 2.0, steps: middle, prior_scale: Self::COARSE_PRIOR_SCALE },
+                Stage { prior_scale: Self::COARSE_PRIOR_SCALE, ..Stage::new(Self::COARSE_BLUR, coarse) },
+                Stage { prior_scale: Self::COARSE_PRIOR_SCALE, ..Stage::new(Self::COARSE_BLUR / 2.0, middle) },
                 Stage::new(0.0, fine),
             ],
         }
@@ -167,8 +175,9 @@ impl PoseFit {
     /// early when `schedule.convergence` says so. Calls `on_step` after every step:
     /// [`ControlFlow::Break`] cancels the run, which then ends where it is (the hypothesis
     /// being tried counts as the chosen one). Ends unblurred, with the pose prior's weight back
-    /// at `μ`. Errors (and stops) on the first step that errors, or before the first step on a
-    /// stage whose `prior_scale` is negative or not finite.
+    /// at `μ`. A stage's [`Stage::outline_settle`] may drop the outline nuisance as the stage
+    /// begins. Errors (and stops) on the first step that errors, or before the first step on a
+    /// stage whose `prior_scale` or `outline_settle` is negative or not finite.
     pub fn run(
         &mut self,
         schedule: &Schedule,
@@ -177,6 +186,13 @@ impl PoseFit {
     ) -> Result<RunReport> {
         if let Some(stage) = schedule.stages.iter().find(|s| !(s.prior_scale.is_finite() && s.prior_scale >= 0.0)) {
             return Err(Error::InvalidSettings(format!("need a non-negative prior scale, got {}", stage.prior_scale)));
+        }
+        if let Some(stage) = schedule.stages.iter().find(|s| !(s.outline_settle.is_finite() && s.outline_settle >= 0.0))
+        {
+            return Err(Error::InvalidSettings(format!(
+                "need a finite, non-negative outline settle, got {}",
+                stage.outline_settle
+            )));
         }
         let result = self.run_schedule(schedule, hypotheses, on_step);
         if result.is_err() {
@@ -226,6 +242,10 @@ impl PoseFit {
         for (s, stage) in schedule.stages.iter().enumerate() {
             self.set_blur(stage.blur)?;
             self.set_prior_scale(stage.prior_scale);
+            if self.outline_rate() > 0.0 && self.outline().abs() < stage.outline_settle {
+                self.set_outline(0.0)?;
+                self.set_outline_rate(0.0)?;
+            }
             let rule = if s == last { schedule.convergence } else { None };
             let mut energies = Vec::new();
             for _ in 0..stage.steps {

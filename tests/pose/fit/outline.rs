@@ -1,9 +1,11 @@
 //! The outline nuisance `a` of a pose fit: at the true pose, targets eroded or dilated by one
-//! pixel are matched exactly by `a = −1` or `+1`; `∂E/∂a` against a finite difference; bad
-//! values are errors.
+//! pixel are matched exactly by `a = −1` or `+1`; `∂E/∂a` against a finite difference; a stage
+//! drops an outline settled below its `outline_settle`; bad values are errors.
+
+use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{framing_cameras, random_pose, FitSettings, PoseFit};
+use diffsil::pose::fit::{framing_cameras, random_pose, FitOptions, FitSettings, PoseFit, Schedule, Stage};
 use diffsil::{Error, Image, RenderSettings, Renderer};
 
 /// `image` with each pixel replaced by `pick` over its 3×3 neighbourhood (outside: 0).
@@ -74,4 +76,77 @@ fn the_outline_gradient_matches_a_finite_difference_and_bad_values_are_errors() 
     }
     assert!(matches!(fit.set_outline_rate(-0.1), Err(Error::InvalidSettings(_))));
     assert_eq!(fit.outline_rate(), 0.0);
+}
+
+/// Runs a blurred stage of three steps (which fits `a` from 0) then an unblurred one of two with
+/// `settle`, from the true pose toward its silhouettes dilated by one pixel; returns the fit and
+/// the outline after each step.
+fn settle_run(settle: f32) -> (PoseFit, Vec<f32>) {
+    let mut fit = fit_at_truth(|t| morph(t, f32::max, 0.0));
+    fit.set_outline_rate(0.06).unwrap();
+    let schedule = Schedule {
+        hypothesis_steps: 0,
+        stages: vec![Stage::new(Schedule::COARSE_BLUR, 3), Stage { outline_settle: settle, ..Stage::new(0.0, 2) }],
+        convergence: None,
+    };
+    let mut outlines = Vec::new();
+    fit.run(&schedule, &[], |fit, _| {
+        outlines.push(fit.outline());
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    (fit, outlines)
+}
+
+#[test]
+fn a_stage_drops_an_outline_settled_below_its_value_and_keeps_a_larger_one() {
+    // The blurred steps grow `a` toward the dilated targets.
+    let (kept, outlines) = settle_run(0.0);
+    let grown = outlines[2];
+    assert!(grown > 0.05 && grown < 1.0, "after the blurred stage: {outlines:?}");
+    assert!(outlines[3] != 0.0 && outlines[4] != 0.0, "{outlines:?}");
+    assert_eq!(kept.outline_rate(), 0.06);
+    // Below the settle value: dropped as the stage begins, and not fitted again.
+    let (mut dropped, outlines) = settle_run(grown * 1.01);
+    assert_eq!(&outlines[3..], [0.0, 0.0], "{outlines:?}");
+    assert_eq!((dropped.outline(), dropped.outline_rate()), (0.0, 0.0));
+    dropped.step().unwrap();
+    assert_eq!(dropped.outline(), 0.0);
+    // Above it: kept and fitted.
+    let (above, outlines) = settle_run(grown * 0.99);
+    assert!(outlines[3] != 0.0 && outlines[4] != 0.0, "{outlines:?}");
+    assert_eq!(above.outline_rate(), 0.06);
+}
+
+#[test]
+fn bad_outline_settles_are_errors_before_any_step_and_the_options_put_it_on_the_unblurred_stage() {
+    for bad in [-0.1f32, f32::NAN, f32::INFINITY] {
+        let mut fit = fit_at_truth(|t| t.clone());
+        let schedule = Schedule {
+            hypothesis_steps: 0,
+            stages: vec![Stage::new(0.0, 1), Stage { outline_settle: bad, ..Stage::new(0.0, 1) }],
+            convergence: None,
+        };
+        let mut steps = 0;
+        let result = fit.run(&schedule, &[], |_, _| {
+            steps += 1;
+            ControlFlow::Continue(())
+        });
+        assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
+        assert_eq!(steps, 0, "{bad}");
+        let plan = FitOptions { outline_settle: bad, ..FitOptions::default() }.plan(&builtin_figure());
+        assert!(matches!(plan, Err(Error::InvalidSettings(_))), "{bad}: {plan:?}");
+    }
+    let model = builtin_figure();
+    let settles = |options: &FitOptions| -> Vec<f32> {
+        options.plan(&model).unwrap().0.stages.iter().map(|s| s.outline_settle).collect()
+    };
+    let defaults = FitOptions::default();
+    assert_eq!(settles(&defaults), [0.0, 0.0, 0.0]);
+    let settled = FitOptions { outline_settle: 0.1, ..defaults.clone() };
+    assert_eq!(settles(&settled), [0.0, 0.0, 0.1]);
+    // Without blur the outline starts at 0 and is kept.
+    assert_eq!(settles(&FitOptions { coarse_blur: 0.0, ..settled }), [0.0]);
+    let schedule = Schedule::coarse_to_fine(300, 3);
+    assert!(schedule.stages.iter().all(|s| s.outline_settle == 0.0));
 }

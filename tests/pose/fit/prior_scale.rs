@@ -31,7 +31,7 @@ fn a_run_weighs_the_prior_by_each_stage_and_ends_with_mu() {
     fit.set_pose_prior(mu).unwrap();
     let schedule = Schedule {
         hypothesis_steps: 2,
-        stages: vec![Stage { blur: Schedule::COARSE_BLUR, steps: 2, prior_scale: 10.0 }, Stage::new(0.0, 3)],
+        stages: vec![Stage { prior_scale: 10.0, ..Stage::new(Schedule::COARSE_BLUR, 2) }, Stage::new(0.0, 3)],
         convergence: None,
     };
     let starts = [bent(model.joint_count()), Pose::rest(model.joint_count())];
@@ -65,7 +65,7 @@ fn a_stage_with_a_bad_prior_scale_is_an_error_before_any_step() {
         let (mut fit, _, _) = fit_from_rest(16, 5);
         let schedule = Schedule {
             hypothesis_steps: 0,
-            stages: vec![Stage::new(0.0, 1), Stage { blur: 0.0, steps: 1, prior_scale: bad }],
+            stages: vec![Stage::new(0.0, 1), Stage { prior_scale: bad, ..Stage::new(0.0, 1) }],
             convergence: None,
         };
         let mut steps = 0;
