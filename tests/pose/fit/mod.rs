@@ -41,6 +41,19 @@ fn fit_from_rest(resolution: u32, seed: u64) -> (PoseFit, SkinnedMesh, Vec<Vec3>
     (fit, model, truth_vertices)
 }
 
+/// Asserts that [`PoseFit::run`] of a plain stage followed by `bad` is an
+/// [`Error::InvalidSettings`] before any step (`what` names the case in a failure).
+fn assert_stage_rejected_before_any_step(fit: &mut PoseFit, bad: Stage, what: &str) {
+    let schedule = Schedule { hypothesis_steps: 0, stages: vec![Stage::new(0.0, 1), bad], convergence: None };
+    let mut steps = 0;
+    let result = fit.run(&schedule, &[], |_, _| {
+        steps += 1;
+        ControlFlow::Continue(())
+    });
+    assert!(matches!(result, Err(Error::InvalidSettings(_))), "{what}: {result:?}");
+    assert_eq!(steps, 0, "{what}");
+}
+
 #[test]
 fn a_short_fit_reduces_the_silhouette_error_and_the_vertex_error() {
     let (mut fit, _, truth_vertices) = fit_from_rest(48, 7);

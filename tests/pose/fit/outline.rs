@@ -4,6 +4,7 @@
 
 use std::ops::ControlFlow;
 
+use super::assert_stage_rejected_before_any_step;
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{framing_cameras, random_pose, FitOptions, FitSettings, PoseFit, Schedule, Stage};
 use diffsil::{Error, Image, RenderSettings, Renderer};
@@ -122,18 +123,8 @@ fn a_stage_drops_an_outline_settled_below_its_value_and_keeps_a_larger_one() {
 fn bad_outline_settles_are_errors_before_any_step_and_the_options_put_it_on_the_unblurred_stage() {
     for bad in [-0.1f32, f32::NAN, f32::INFINITY] {
         let mut fit = fit_at_truth(|t| t.clone());
-        let schedule = Schedule {
-            hypothesis_steps: 0,
-            stages: vec![Stage::new(0.0, 1), Stage { outline_settle: bad, ..Stage::new(0.0, 1) }],
-            convergence: None,
-        };
-        let mut steps = 0;
-        let result = fit.run(&schedule, &[], |_, _| {
-            steps += 1;
-            ControlFlow::Continue(())
-        });
-        assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
-        assert_eq!(steps, 0, "{bad}");
+        let stage = Stage { outline_settle: bad, ..Stage::new(0.0, 1) };
+        assert_stage_rejected_before_any_step(&mut fit, stage, &format!("outline settle {bad}"));
         let plan = FitOptions { outline_settle: bad, ..FitOptions::default() }.plan(&builtin_figure());
         assert!(matches!(plan, Err(Error::InvalidSettings(_))), "{bad}: {plan:?}");
     }

@@ -4,7 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use super::fit_from_rest;
+use super::{assert_stage_rejected_before_any_step, fit_from_rest};
 use diffsil::pose::figure::builtin_figure;
 use diffsil::pose::fit::{FitOptions, PoseFit, Schedule, Stage, StepReport};
 use diffsil::pose::skin::Pose;
@@ -63,18 +63,8 @@ fn a_run_weighs_the_prior_by_each_stage_and_ends_with_mu() {
 fn a_stage_with_a_bad_prior_scale_is_an_error_before_any_step() {
     for bad in [-1.0, f32::NAN, f32::INFINITY] {
         let (mut fit, _, _) = fit_from_rest(16, 5);
-        let schedule = Schedule {
-            hypothesis_steps: 0,
-            stages: vec![Stage::new(0.0, 1), Stage { prior_scale: bad, ..Stage::new(0.0, 1) }],
-            convergence: None,
-        };
-        let mut steps = 0;
-        let result = fit.run(&schedule, &[], |_, _| {
-            steps += 1;
-            ControlFlow::Continue(())
-        });
-        assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
-        assert_eq!(steps, 0, "{bad}");
+        let stage = Stage { prior_scale: bad, ..Stage::new(0.0, 1) };
+        assert_stage_rejected_before_any_step(&mut fit, stage, &format!("prior scale {bad}"));
     }
 }
 
