@@ -78,7 +78,8 @@ the steps at 6% (on the proxy too),
 steps is less than 0.5% below that of the 25 before. An outline nuisance a (--outline) grows or
 shrinks every render by up to one pixel before it is compared, so that masks a pixel too fat or
 too thin do not twist the pose (--outline-settle X drops it for the unblurred steps when the
-blurred ones end with |a| below X). Then the swap test: each leg and arm mirrored front to
+blurred ones end with |a| below X; --warmup K ramps the learning rate up over the first K
+unblurred steps; both off by default). Then the swap test: each leg and arm mirrored front to
 back, both legs mirrored and the legs exchanged; the lowest in energy as it is, and any
 within 3 times the pose's energy, refined 10 steps beside the pose and kept where the energy ends
 lower (--swap-steps, --swap-refined, --swap-within). Same method and settings at every resolution
@@ -186,6 +187,10 @@ pub struct Options {
     /// it (FitOptions::outline_settle)
     #[arg(long, value_name = "X", default_value_t = 0.0, value_parser = finite)]
     outline_settle: f32,
+    /// Steps over which the unblurred stage ramps up the learning rate, e.g. 10; 0: none
+    /// (FitOptions::warmup)
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    warmup: u32,
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
@@ -303,6 +308,7 @@ fn fit_options(o: &Options) -> FitOptions {
         fit_outline: o.outline.unwrap_or(defaults.fit_outline),
         outline_rate: o.outline_rate,
         outline_settle: o.outline_settle,
+        warmup: o.warmup,
         swap_steps: o.swap_steps.unwrap_or(defaults.swap_steps),
         coarse_proxy: o.coarse_proxy.unwrap_or(defaults.coarse_proxy),
         swap_screen: SwapScreen {

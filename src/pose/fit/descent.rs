@@ -297,6 +297,11 @@ impl PoseFit {
         &self.renderer
     }
 
+    /// Adam's learning rate.
+    pub fn learning_rate(&self) -> f32 {
+        self.adam.learning_rate
+    }
+
     /// Sets Adam's learning rate (a positive number).
     pub fn set_learning_rate(&mut self, learning_rate: f32) -> Result<()> {
         if !(learning_rate.is_finite() && learning_rate > 0.0) {

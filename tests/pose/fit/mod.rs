@@ -9,6 +9,7 @@ mod outline;
 mod prior_scale;
 mod proxy;
 mod swap;
+mod warmup;
 
 use std::ops::ControlFlow;
 
