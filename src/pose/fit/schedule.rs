@@ -188,7 +188,8 @@ impl PoseFit {
     /// [`ControlFlow::Break`] cancels the run, which then ends where it is (the hypothesis
     /// being tried counts as the chosen one). Ends unblurred, with the pose prior's weight back
     /// at `μ`. A stage's [`Stage::outline_settle`] may drop the outline nuisance as the stage
-    /// begins. Errors (and stops) on the first step that errors, or before the first step on a
+    /// begins, and its [`Stage::warmup`] ramps the learning rate over its first steps (the
+    /// fit's rate is back after each). Errors (and stops) on the first step that errors, or before the first step on a
     /// stage whose `prior_scale` or `outline_settle` is negative or not finite.
     pub fn run(
         &mut self,
@@ -263,7 +264,7 @@ impl PoseFit {
             let rate = self.learning_rate();
             for k in 0..stage.steps {
                 let report = if k < stage.warmup {
-                    self.set_learning_rate(rate * (k + 1) as f32 / (stage.warmup + 1) as f32)?;
+                    self.set_learning_rate(rate * (k + 1) as f32 / stage.warmup.saturating_add(1) as f32)?;
                     let report = self.step();
                     self.set_learning_rate(rate)?;
                     report?
