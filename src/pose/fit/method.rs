@@ -85,7 +85,8 @@ pub struct FitOptions {
     /// every contour, so the renderer's backward visits every contour segment. With 0.1 a
     /// MakeHuman fit of exact masks takes 0.8 times the time, and dilated and eroded masks fit
     /// as before; but the fits of exact masks end elsewhere within their spread, and on the
-    /// built-in figure two of seeds 31–80 then keep a wrong limb swap (p90 6.9 → 12.1 mm; the
+    /// built-in figure two of seeds 31–80 no longer recover from the jump of the first
+    /// unblurred step ([`Stage::warmup`]) and end 6 to 10 mm worse (p90 6.9 → 12.1 mm; the
     /// README's evaluation has the table), so the default keeps the outline.
     pub outline_settle: f32,
     /// Steps over which the unblurred stage that follows the blurred ones ramps up the learning
