@@ -107,9 +107,10 @@
 //!    unblurred steps beside the pose, in one batch per step, and a candidate replaces the pose
 //!    only where its energy then ends lower. A state's steps do not depend on the others in its
 //!    batch, so the screen changes a fit only where it leaves out the candidate the full test
-//!    would keep: over the 406 fits of the README's evaluation (four models, four kinds of mask)
-//!    it never does (see the README). Two lowest alone, tried earlier with the energies taken
-//!    one by one, lost two swaps and saved nothing.
+//!    would keep: over 386 fits of four models and four kinds of mask the screen of the three
+//!    lowest never did, and the lowest alone with the ratio ends the README's evaluation (352
+//!    fits) as the three did (see the README). Two lowest alone, tried earlier with the energies
+//!    taken one by one, lost two swaps and saved nothing.
 //!
 //! 10. **A coarse proxy at the coarsest blur** ([`FitOptions::coarse_proxy`],
 //!     [`PoseFit::set_coarse_proxy`]): the starting poses and the first stage compare
