@@ -15,7 +15,8 @@ use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitSettings, PoseFit, Schedule, Stage, Stop,
+    framing_cameras, per_vertex_error, random_pose, stride_hypotheses, FitOptions, FitSettings, PoseFit, Schedule,
+    Stage, Stop,
 };
 use diffsil::pose::skin::{JointRest, Pose, Skeleton, SkinnedMesh};
 use diffsil::{Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
@@ -40,6 +41,11 @@ fn fit_from_rest(resolution: u32, seed: u64) -> (PoseFit, SkinnedMesh, Vec<Vec3>
     let renderer = Renderer::new(RenderSettings::default()).unwrap();
     let fit = PoseFit::new(model.clone(), cameras, targets, renderer, FitSettings::default()).unwrap();
     (fit, model, truth_vertices)
+}
+
+/// One setting of each stage the built-in figure's plan under `options` has (`FitOptions::plan`).
+fn planned<T>(options: &FitOptions, setting: impl Fn(&Stage) -> T) -> Vec<T> {
+    options.plan(&builtin_figure()).unwrap().0.stages.iter().map(setting).collect()
 }
 
 /// Asserts that [`PoseFit::run`] of a plain stage followed by `bad` is an

@@ -4,7 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use super::assert_stage_rejected_before_any_step;
+use super::{assert_stage_rejected_before_any_step, planned};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{framing_cameras, random_pose, FitOptions, FitSettings, PoseFit, Schedule, Stage};
 use diffsil::{Error, Image, RenderSettings, Renderer};
@@ -128,10 +128,7 @@ fn bad_outline_settles_are_errors_before_any_step_and_the_options_put_it_on_the_
         let plan = FitOptions { outline_settle: bad, ..FitOptions::default() }.plan(&builtin_figure());
         assert!(matches!(plan, Err(Error::InvalidSettings(_))), "{bad}: {plan:?}");
     }
-    let model = builtin_figure();
-    let settles = |options: &FitOptions| -> Vec<f32> {
-        options.plan(&model).unwrap().0.stages.iter().map(|s| s.outline_settle).collect()
-    };
+    let settles = |options: &FitOptions| planned(options, |s| s.outline_settle);
     let defaults = FitOptions::default();
     assert_eq!(settles(&defaults), [0.0, 0.0, 0.0]);
     let settled = FitOptions { outline_settle: 0.1, ..defaults.clone() };

@@ -4,7 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use super::{assert_stage_rejected_before_any_step, fit_from_rest};
+use super::{assert_stage_rejected_before_any_step, fit_from_rest, planned};
 use diffsil::pose::figure::builtin_figure;
 use diffsil::pose::fit::{FitOptions, PoseFit, Schedule, Stage, StepReport};
 use diffsil::pose::skin::Pose;
@@ -70,10 +70,7 @@ fn a_stage_with_a_bad_prior_scale_is_an_error_before_any_step() {
 
 #[test]
 fn the_options_put_the_coarse_prior_scale_on_the_blurred_stages() {
-    let model = builtin_figure();
-    let scales = |options: &FitOptions| -> Vec<f32> {
-        options.plan(&model).unwrap().0.stages.iter().map(|s| s.prior_scale).collect()
-    };
+    let scales = |options: &FitOptions| planned(options, |s| s.prior_scale);
     let defaults = FitOptions::default();
     assert_eq!(defaults.coarse_prior_scale, Schedule::COARSE_PRIOR_SCALE);
     assert_eq!(defaults.pose_prior, PoseFit::POSE_PRIOR);
@@ -85,7 +82,7 @@ fn the_options_put_the_coarse_prior_scale_on_the_blurred_stages() {
     assert_eq!(schedule.stages.iter().map(|s| s.prior_scale).collect::<Vec<_>>(), [s, s, 1.0]);
     assert_eq!(scales(&FitOptions { coarse_blur: 0.0, ..defaults.clone() }), [1.0]);
     for bad in [-0.5, f32::NAN, f32::INFINITY] {
-        let result = FitOptions { coarse_prior_scale: bad, ..defaults.clone() }.plan(&model);
+        let result = FitOptions { coarse_prior_scale: bad, ..defaults.clone() }.plan(&builtin_figure());
         assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
     }
 }

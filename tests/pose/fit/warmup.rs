@@ -4,8 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use super::fit_from_rest;
-use diffsil::pose::figure::builtin_figure;
+use super::{fit_from_rest, planned};
 use diffsil::pose::fit::{FitOptions, Schedule, Stage};
 use diffsil::pose::skin::Pose;
 use diffsil::Vec3;
@@ -40,10 +39,7 @@ fn a_stage_ramps_the_learning_rate_over_its_warmup_then_takes_the_fits_own() {
 
 #[test]
 fn the_options_put_the_warmup_on_the_unblurred_stage_only() {
-    let model = builtin_figure();
-    let warmups = |options: &FitOptions| -> Vec<u32> {
-        options.plan(&model).unwrap().0.stages.iter().map(|s| s.warmup).collect()
-    };
+    let warmups = |options: &FitOptions| planned(options, |s| s.warmup);
     let defaults = FitOptions::default();
     assert_eq!(warmups(&defaults), [0, 0, 0]);
     let ramped = FitOptions { warmup: 10, ..defaults };
