@@ -31,6 +31,8 @@ pub struct ViewState {
     pub masks: Vec<u32>,
     /// The face orientations of the forward (kept, like `masks`, for reuse).
     pub orientation: Vec<i8>,
+    /// The buffers of the coverage pass (kept, like `masks`, for reuse).
+    pub contour: coverage::ContourScratch,
 }
 
 /// Forward of one view from screen vertices and their snapped positions ([`super::project::snap`], or both
@@ -51,7 +53,7 @@ pub fn forward_view(
 /// allocated but the returned image), and returns the image.
 pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &Topology) -> Vec<f32> {
     let triangles = topology.triangles();
-    let ViewState { screen, snapped, boxes, candidates, masks, orientation, .. } = state;
+    let ViewState { screen, snapped, boxes, candidates, masks, orientation, contour, .. } = state;
     // Every box and mask word is written by the coverage pass: resizing keeps the old values
     // without clearing them.
     boxes.resize(triangles.len(), [0; 4]);
@@ -60,8 +62,7 @@ pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &T
     // Coverage and the edge classification are independent: run them side by side.
     let ((summary, image), ()) = rayon::join(
         || {
-            let skip = coverage::BackFaceSkip::new(topology, snapped);
-            let summary = coverage::coverage(&params, snapped, triangles, skip.as_ref(), boxes, masks);
+            let summary = coverage::coverage(&params, snapped, topology, boxes, masks, contour);
             let mut image = vec![0.0; params.pixel_count()];
             resolve::resolve(&params, masks, &mut image);
             (summary, image)

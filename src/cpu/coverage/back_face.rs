@@ -70,7 +70,7 @@ impl BackFaceSkip {
 mod tests {
     use super::*;
     use crate::cpu::coverage::triangle::area2;
-    use crate::cpu::coverage::{coverage, xorshift, SnappedTriangle};
+    use crate::cpu::coverage::{draw_triangles, xorshift, SnappedTriangle};
     use crate::mirror::{RasterParams, ScreenVertex};
 
     /// `χ(a → b, p)` of [`BackFaceSkip`]: the half-open crossing count of a ray from `p` towards +x.
@@ -155,9 +155,15 @@ mod tests {
             assert_eq!(skip.boxes.is_empty(), case % 4 == 0, "case {case}");
             let words = params.pixel_count() * params.words_per_pixel as usize;
             let (mut all, mut culled) = (vec![0u32; words], vec![0u32; words]);
-            let a = coverage(&params, &snapped, &triangles, None, &mut vec![[0; 4]; triangles.len()], &mut all);
-            let b =
-                coverage(&params, &snapped, &triangles, Some(&skip), &mut vec![[0; 4]; triangles.len()], &mut culled);
+            let a = draw_triangles(&params, &snapped, &triangles, None, &mut vec![[0; 4]; triangles.len()], &mut all);
+            let b = draw_triangles(
+                &params,
+                &snapped,
+                &triangles,
+                Some(&skip),
+                &mut vec![[0; 4]; triangles.len()],
+                &mut culled,
+            );
             assert_eq!(a, b, "case {case}");
             assert_eq!(all, culled, "case {case}: skipping back faces changed the masks");
             // The skip has teeth: dropping every negative triangle changes the open cases.
@@ -170,7 +176,7 @@ mod tests {
                 })
                 .collect();
             let mut front = vec![0u32; words];
-            coverage(&params, &snapped, &positive, None, &mut vec![[0; 4]; positive.len()], &mut front);
+            draw_triangles(&params, &snapped, &positive, None, &mut vec![[0; 4]; positive.len()], &mut front);
             if case % 4 == 0 {
                 assert_eq!(front, all, "case {case}: a closed mesh's positive triangles cover it all");
             } else {

@@ -1,5 +1,9 @@
 //! `coverage` — CPU twin of `shaders/coverage.wgsl`: triangles → F×F sample masks per pixel.
 //!
+//! The WGSL stage draws every triangle; the CPU fills the same masks from the view's contour
+//! ([`contour`]): its work follows the silhouette, not the mesh. [`draw_triangles`], the CPU
+//! drawing every triangle, is the reference it is tested against.
+//!
 //! A sample is covered when it lies inside any triangle, whatever the winding. Edge functions are
 //! exact integers on the fixed-point grid of [`RasterParams`]; a sample exactly on an edge counts
 //! for the triangle whose edge is a *top* or *left* edge (screen y down), so a sample on an edge
@@ -8,19 +12,40 @@
 
 mod back_face;
 mod bands;
+pub mod contour;
 mod setup;
 mod triangle;
 
 use crate::mirror::RasterParams;
+use crate::scene::mesh::Topology;
 
 pub use back_face::BackFaceSkip;
 use bands::{draw_direct, draw_in_bands, DIRECT_WORDS};
+pub use contour::ContourScratch;
 use setup::SetupPass;
 pub use setup::TriangleSummary;
 pub use triangle::SnappedTriangle;
 
-/// Writes every pixel's sample mask. Reads the snapped vertices and triangles of one view;
-/// writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
+/// Writes every pixel's sample mask from the view's contour (see [`contour`] for why the masks are exact).
+/// Reads the snapped vertices and the topology; writes `masks` (`pixel_count · words_per_pixel`
+/// words) and, on the way, every triangle's snapped bounding box into `boxes` (one per triangle,
+/// as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes them; the backward bins from
+/// them without reading the vertices again). The masks are those of drawing every triangle,
+/// [`draw_triangles`], bit for bit; `scratch` keeps the pass's buffers from call to call.
+pub fn coverage(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    topology: &Topology,
+    boxes: &mut [[i32; 4]],
+    masks: &mut [u32],
+    scratch: &mut ContourScratch,
+) -> TriangleSummary {
+    contour::coverage_from_contour(params, snapped, topology, boxes, masks, scratch)
+}
+
+/// The masks of [`coverage`] by drawing every triangle, as the WGSL stage does (the forward no
+/// longer runs it; it is the reference the contour fill is tested against). Reads the snapped
+/// vertices and triangles of one view; writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
 /// snapped bounding box into `boxes` (one per triangle, as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes)
 /// computes them; the backward bins from them without reading the vertices again). With `skip`,
 /// leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are the same).
@@ -39,7 +64,7 @@ pub use triangle::SnappedTriangle;
 /// triangles). Boxes of one sample are tested directly, small triangles sample by sample with
 /// incremental edge functions, large ones row by row with exact spans; all evaluate
 /// [`SnappedTriangle::covers`] exactly.
-pub fn coverage(
+pub fn draw_triangles(
     params: &RasterParams,
     snapped: &[[i32; 2]],
     triangles: &[[u32; 3]],

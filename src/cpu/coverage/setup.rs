@@ -256,7 +256,7 @@ impl SetupPass<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::coverage::{coverage, xorshift};
+    use crate::cpu::coverage::{draw_triangles, xorshift};
     use crate::mirror::{ScreenVertex, COORD_LIMIT};
 
     /// Coverage of `n` random triangles (small and large, some off the image, some with a clipped
@@ -290,7 +290,7 @@ mod tests {
             let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
             let words = params.pixel_count() * params.words_per_pixel as usize;
             let (mut masks, mut boxes) = (vec![u32::MAX; words], vec![[1; 4]; n]);
-            let summary = coverage(&params, &snapped, &triangles, None, &mut boxes, &mut masks);
+            let summary = draw_triangles(&params, &snapped, &triangles, None, &mut boxes, &mut masks);
             assert_eq!(boxes, crate::cpu::bin::snapped_boxes(&snapped, &triangles), "n = {n}");
             let mut expected = TriangleSummary::default();
             let limit = w.max(h) as i64 * params.units as i64;

@@ -74,7 +74,7 @@ enum Bound {
 
 /// `(⌊n / m⌋, n mod m)` for `m > 0`, exactly: an f64 estimate corrected with integer arithmetic
 /// (much cheaper than a 64-bit integer division).
-fn floor_div(n: i64, m: i64) -> (i64, i64) {
+pub(super) fn floor_div(n: i64, m: i64) -> (i64, i64) {
     // Truncation (not `floor`, a library call without SSE4.1): the loops correct any estimate.
     let mut q = (n as f64 / m as f64) as i64;
     let mut r = n - q * m;
@@ -201,7 +201,7 @@ impl SnappedTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::coverage::{coverage, xorshift};
+    use crate::cpu::coverage::{draw_triangles, xorshift};
     use crate::mirror::ScreenVertex;
 
     #[test]
@@ -236,7 +236,7 @@ mod tests {
                 let tris = [[0u32, 1, 2]];
                 let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
                 let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
-                coverage(&params, &snapped, &tris, None, &mut vec![[0; 4]; tris.len()], &mut masks);
+                draw_triangles(&params, &snapped, &tris, None, &mut vec![[0; 4]; tris.len()], &mut masks);
                 let tri = SnappedTriangle::new(&snapped, tris[0]);
                 let h = params.half_step as i64;
                 for sy in 0..(params.height * f) as i64 {
