@@ -18,9 +18,8 @@
 //! tiles a silhouette segment with a non-zero `∂L/∂I` crosses.
 //!
 //! Where the CPU departs from the WGSL stages' shape for speed, the result is the same bit for bit
-//! (tested): coverage skips back faces it can prove redundant ([`coverage::BackFaceSkip`]) and
-//! draws from per-band (or, for small images, per-task) lists rather than tile lists and writes
-//! every triangle's snapped box for the backward; `edge_grad` lists occluders only for the cells it
+//! (tested): coverage fills the masks from the view's contour ([`coverage::contour`]) instead of
+//! drawing every triangle, and writes every triangle's snapped box for the backward; `edge_grad` lists occluders only for the cells it
 //! needs and stops on hidden segments; `gather` scatters
 //! the candidates' slots instead of reading every edge's.
 

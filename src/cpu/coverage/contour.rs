@@ -161,8 +161,9 @@ fn face_block(
             (x[k][l], y[k][l]) = (p[0], p[1]);
         }
     }
-    let (mut out_box, mut sign, mut extent) = ([[0i32; 4]; BLOCK], [0i8; BLOCK], [0i32; BLOCK]);
-    let mut valid = [0i32; BLOCK];
+    let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
+    let (mut extent, mut valid, mut wide) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
+    let (mut ax, mut ay, mut bx, mut by) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
     for l in 0..BLOCK {
         let ok = !((x[0][l] == INVALID_SNAPPED) | (x[1][l] == INVALID_SNAPPED) | (x[2][l] == INVALID_SNAPPED)) as i32;
         let b = [
@@ -171,32 +172,51 @@ fn face_block(
             x[0][l].max(x[1][l]).max(x[2][l]),
             y[0][l].max(y[1][l]).max(y[2][l]),
         ];
-        // Valid coordinates are within ±2^29: differences fit in i32, products in i64.
-        let (ax, ay) = (x[1][l].wrapping_sub(x[0][l]) as i64, y[1][l].wrapping_sub(y[0][l]) as i64);
-        let (bx, by) = (x[2][l].wrapping_sub(x[0][l]) as i64, y[2][l].wrapping_sub(y[0][l]) as i64);
-        let area2 = ax * by - ay * bx;
-        sign[l] = (((area2 > 0) as i8) - ((area2 < 0) as i8)) * ok as i8;
         extent[l] = b[2].wrapping_sub(b[0]).max(b[3].wrapping_sub(b[1])).min(limit) & -ok;
-        out_box[l] = [0, 1, 2, 3].map(|k| (b[k] & -ok) | (CULLED_BOX[k] & (ok - 1)));
+        // CULLED_BOX for a clipped lane, branch-free: ok is 0 or 1, so −ok is 0 or −1.
+        lo_x[l] = (b[0] & -ok) | (CULLED_BOX[0] & (ok - 1));
+        lo_y[l] = (b[1] & -ok) | (CULLED_BOX[1] & (ok - 1));
+        hi_x[l] = (b[2] & -ok) | (CULLED_BOX[2] & (ok - 1));
+        hi_y[l] = (b[3] & -ok) | (CULLED_BOX[3] & (ok - 1));
         valid[l] = ok;
+        // Edge vectors (valid coordinates are within ±2^29, so these fit in i32; a clipped
+        // lane's may wrap: it is masked out).
+        ax[l] = x[1][l].wrapping_sub(x[0][l]);
+        ay[l] = y[1][l].wrapping_sub(y[0][l]);
+        bx[l] = x[2][l].wrapping_sub(x[0][l]);
+        by[l] = y[2][l].wrapping_sub(y[0][l]);
+        // Whether a difference reaches 2^26 (the f64 area below is exact under it).
+        let reach = |d: i32| (d.wrapping_add(1 << 26) as u32 >= 1 << 27) as i32;
+        wide[l] = (reach(ax[l]) | reach(ay[l]) | reach(bx[l]) | reach(by[l])) & ok;
+    }
+    // The sign of the snapped area: in f64, exact while every difference is below 2^26 (products
+    // below 2^52, their difference below 2^53); in i64 for a block with a wider one.
+    let mut sign = [0i8; BLOCK];
+    if wide.iter().all(|&w| w == 0) {
+        for l in 0..BLOCK {
+            let area2 = ax[l] as f64 * by[l] as f64 - ay[l] as f64 * bx[l] as f64;
+            sign[l] = (((area2 > 0.0) as i8) - ((area2 < 0.0) as i8)) * valid[l] as i8;
+        }
+    } else {
+        for l in 0..BLOCK {
+            let area2 = ax[l] as i64 * by[l] as i64 - ay[l] as i64 * bx[l] as i64;
+            sign[l] = (((area2 > 0) as i8) - ((area2 < 0) as i8)) * valid[l] as i8;
+        }
     }
     let n = signs.len();
     signs.copy_from_slice(&sign[..n]);
-    boxes.copy_from_slice(&out_box[..n]);
+    for (l, out) in boxes.iter_mut().enumerate() {
+        *out = [lo_x[l], lo_y[l], hi_x[l], hi_y[l]];
+    }
     let counted: i32 = valid[..n].iter().sum();
     summary.culled += (n as i32 - counted) as u32;
     summary.counted += counted as u64;
     summary.extent_sum += extent[..n].iter().map(|&e| e as u64).sum::<u64>();
 }
 
-/// The weights `(w₊, w)` of edge `e` (see the module's notes) from its faces' signs.
-#[inline(always)]
-fn edge_weights(topology: &Topology, signs: &[i8], e: usize, wing: [u32; 2]) -> (i32, i32) {
-    if wing[0] != u32::MAX {
-        // The usual edge: one face runs it a → b, the other b → a.
-        let (f, g) = (signs[wing[0] as usize] as i32, signs[wing[1] as usize] as i32);
-        return ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32);
-    }
+/// The weights `(w₊, w)` (see the module's notes) of edge `e`, whose faces are not two that run
+/// it opposite ways (those are in [`crossings`]' fast path), from its faces' signs.
+fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
     let range = topology.edge_face_offsets()[e] as usize..topology.edge_face_offsets()[e + 1] as usize;
     let faces = &topology.edge_face_list()[range.clone()];
     let forward = &topology.edge_face_forward()[range];
@@ -224,11 +244,22 @@ fn crossings(
     let last_col = params.width as i64 * params.supersample as i64 - 1;
     let last_row = params.height as i64 * params.supersample as i64 - 1;
     let edges = topology.edges();
-    for (e, &wing) in topology.edge_wings().iter().enumerate() {
-        let (positive, net) = edge_weights(topology, signs, e, wing);
-        if positive == 0 && net == 0 {
-            continue;
-        }
+    for (e, &[f, g]) in topology.edge_wings().iter().enumerate() {
+        let (positive, net) = if f != u32::MAX {
+            // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel (most
+            // edges: inside the silhouette or behind it).
+            let (f, g) = (signs[f as usize], signs[g as usize]);
+            if f == g {
+                continue;
+            }
+            let (f, g) = (f as i32, g as i32);
+            ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32)
+        } else {
+            match edge_weights(topology, signs, e) {
+                (0, 0) => continue,
+                weights => weights,
+            }
+        };
         // A face with non-zero sign has valid vertices, so both ends are valid.
         let [a, b] = edges[e].map(|v| snapped[v as usize]);
         // Run the edge downwards: χ(b → a) = −χ(a → b); a horizontal edge crosses no row.
@@ -390,6 +421,72 @@ mod tests {
         }
         let filled = coverage_from_contour(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
         [a, (masks, boxes, filled)]
+    }
+
+    /// `(g, s, t)` with `a·s + b·t = g = gcd(a, b)`.
+    fn extended_gcd(a: i64, b: i64) -> (i64, i64, i64) {
+        if b == 0 {
+            (a.abs(), a.signum(), 0)
+        } else {
+            let (g, s, t) = extended_gcd(b, a.rem_euclid(b));
+            (g, t, s - a.div_euclid(b) * t)
+        }
+    }
+
+    /// Face signs and boxes against i64 areas and `bin::snapped_boxes`, for coordinates of every
+    /// size (blocks on the f64 path, differences below 2^26, and on the i64 one above it),
+    /// slivers of snapped area ±1 unit² whose two products are about 2^6, 2^46 or 2^54, clipped
+    /// vertices, and every length of the last block.
+    #[test]
+    fn face_signs_are_exact() {
+        let mut rand = xorshift(0x2545_f491_4f6c_dd1d);
+        for n in (0..=2 * BLOCK + 1).chain([100, 3 * FACES_PER_TASK + 5]) {
+            let mut snapped = Vec::new();
+            for k in 0..n {
+                // One size per block, so that whole blocks take each path.
+                let scale = [1 << 10, 1 << 24, 1 << 28][k / BLOCK % 3] as f64;
+                let mut coord = || ((rand() - 0.5) * scale) as i64;
+                let v0 = [coord(), coord()];
+                let mut v: [[i64; 2]; 3] = [v0, [coord(), coord()], [coord(), coord()]];
+                if k % 2 == 1 {
+                    // A sliver: v2 − v0 = b + d with cross(d, b) = ±1, d = v1 − v0 (gcd 1).
+                    // |d| of at least half the scale, so that the top size's products exceed 2^53.
+                    let mut half = |sign: bool| (scale * (0.5 + 0.25 * rand())) as i64 * if sign { 1 } else { -1 };
+                    let mut d = [half(k % 3 == 0), half(k % 5 < 2)];
+                    while extended_gcd(d[0], d[1]).0 != 1 {
+                        d[0] += 1;
+                    }
+                    let (_, s, t) = extended_gcd(d[0], d[1]);
+                    let flip = if k % 4 == 1 { 1 } else { -1 };
+                    let b = [-t * flip, s * flip];
+                    v[1] = [v0[0] + d[0], v0[1] + d[1]];
+                    v[2] = [v0[0] + b[0] + d[0], v0[1] + b[1] + d[1]];
+                }
+                let mut v = v.map(|p| [p[0] as i32, p[1] as i32]);
+                if k % 9 == 4 && k / BLOCK % 4 == 3 {
+                    v[k % 3] = INVALID_SNAPPED_VERTEX;
+                }
+                snapped.extend(v);
+            }
+            let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+            let (mut signs, mut boxes) = (vec![9i8; n], vec![[5; 4]; n]);
+            face_signs(&snapped, &triangles, 1 << 20, &mut signs, &mut boxes);
+            assert_eq!(boxes, crate::cpu::bin::snapped_boxes(&snapped, &triangles), "n = {n}");
+            for (k, t) in triangles.iter().enumerate() {
+                let v = t.map(|i| snapped[i as usize]);
+                let expected = if v.contains(&INVALID_SNAPPED_VERTEX) {
+                    0
+                } else {
+                    let w = v.map(|p| [p[0] as i64, p[1] as i64]);
+                    let area2 = crate::cpu::coverage::triangle::area2(&w);
+                    if k % 2 == 1 {
+                        assert_eq!(area2.abs(), 1, "the sliver's area");
+                    }
+                    area2.signum() as i8
+                };
+                assert_eq!(signs[k], expected, "n = {n}, face {k}: {v:?}");
+            }
+        }
     }
 
     /// Closed meshes, meshes with holes, flipped faces and open patches, under random (folded)
