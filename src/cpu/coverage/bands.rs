@@ -10,7 +10,7 @@ use crate::mirror::RasterParams;
 /// Triangles per parallel task of the per-triangle pass.
 const TRIANGLES_PER_TASK: usize = 8192;
 
-/// [`coverage`] for a small image: each task draws its triangles at once into a mask of the whole
+/// [`draw_triangles`](super::draw_triangles) for a small image: each task draws its triangles at once into a mask of the whole
 /// image, and the masks are OR-ed (the same bits in any order).
 pub(super) fn draw_direct(
     params: &RasterParams,
@@ -55,7 +55,7 @@ pub(super) fn draw_direct(
     summary
 }
 
-/// [`coverage`] for a larger image: the set-up triangles go to per-band lists, then each band
+/// [`draw_triangles`](super::draw_triangles) for a larger image: the set-up triangles go to per-band lists, then each band
 /// (one task) draws its own, its mask rows staying in cache.
 pub(super) fn draw_in_bands(
     params: &RasterParams,
@@ -105,7 +105,7 @@ pub(super) fn draw_in_bands(
     tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
 }
 
-/// Mask words up to which [`coverage`] draws each task's triangles into a mask of the whole image
+/// Mask words up to which [`draw_triangles`](super::draw_triangles) draws each task's triangles into a mask of the whole image
 /// (64² pixels at F ≤ 5) rather than sorting them into bands first.
 pub(super) const DIRECT_WORDS: usize = 64 * 64;
 

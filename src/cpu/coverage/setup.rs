@@ -115,7 +115,7 @@ impl FloorDiv for Divide {
     }
 }
 
-/// The per-triangle pass of [`coverage`], its constants unpacked.
+/// The per-triangle pass of [`draw_triangles`](super::draw_triangles), its constants unpacked.
 pub(super) struct SetupPass<'a> {
     /// Half the sample step, units.
     pub(super) h: i64,
