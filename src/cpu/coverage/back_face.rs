@@ -6,7 +6,8 @@ use crate::scene::mesh::Topology;
 
 /// Boxes (fixed-point units, `[xmin, ymin, xmax, ymax]`, closed) that hold the oriented boundary
 /// of a mesh in one view: outside them, the triangles of negative snapped area cover no sample
-/// that the triangles of positive area do not, so [`draw_triangles`](super::draw_triangles) may skip them there.
+/// that the triangles of positive area do not, so [`draw_triangles`](super::draw_triangles) may
+/// skip them there.
 ///
 /// Why this is exact. For a triangle of snapped area `A ≠ 0`, the top-left rule's indicator equals
 /// `sign(A)` times a sum over its directed edges `a → b`, in the mesh's vertex order, of the

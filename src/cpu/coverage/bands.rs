@@ -10,8 +10,8 @@ use crate::mirror::RasterParams;
 /// Triangles per parallel task of the per-triangle pass.
 const TRIANGLES_PER_TASK: usize = 8192;
 
-/// [`draw_triangles`](super::draw_triangles) for a small image: each task draws its triangles at once into a mask of the whole
-/// image, and the masks are OR-ed (the same bits in any order).
+/// [`draw_triangles`](super::draw_triangles) for a small image: each task draws its triangles
+/// at once into a mask of the whole image, and the masks are OR-ed (the same bits in any order).
 pub(super) fn draw_direct(
     params: &RasterParams,
     pass: &SetupPass<'_>,
@@ -55,8 +55,8 @@ pub(super) fn draw_direct(
     summary
 }
 
-/// [`draw_triangles`](super::draw_triangles) for a larger image: the set-up triangles go to per-band lists, then each band
-/// (one task) draws its own, its mask rows staying in cache.
+/// [`draw_triangles`](super::draw_triangles) for a larger image: the set-up triangles go to
+/// per-band lists, then each band (one task) draws its own, its mask rows staying in cache.
 pub(super) fn draw_in_bands(
     params: &RasterParams,
     pass: &SetupPass<'_>,
@@ -105,8 +105,9 @@ pub(super) fn draw_in_bands(
     tasks.iter().fold(TriangleSummary::default(), |a, t| a + t.1)
 }
 
-/// Mask words up to which [`draw_triangles`](super::draw_triangles) draws each task's triangles into a mask of the whole image
-/// (64² pixels at F ≤ 5) rather than sorting them into bands first.
+/// Mask words up to which [`draw_triangles`](super::draw_triangles) draws each task's triangles
+/// into a mask of the whole image (64² pixels at F ≤ 5) rather than sorting them into bands
+/// first.
 pub(super) const DIRECT_WORDS: usize = 64 * 64;
 
 /// Appends `setup` to the lists of the bands its sample rows `r0..=r1` overlap.

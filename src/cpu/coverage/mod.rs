@@ -45,10 +45,10 @@ pub fn coverage(
 
 /// The masks of [`coverage`] by drawing every triangle, as the WGSL stage does (the forward no
 /// longer runs it; it is the reference the contour fill is tested against). Reads the snapped
-/// vertices and triangles of one view; writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
-/// snapped bounding box into `boxes` (one per triangle, as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes)
-/// computes them; the backward bins from them without reading the vertices again). With `skip`,
-/// leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are the same).
+/// vertices and triangles of one view; writes `masks` (`pixel_count · words_per_pixel` words)
+/// and, on the way, every triangle's snapped bounding box into `boxes` (as [`coverage`] does).
+/// With `skip`, leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are
+/// the same).
 ///
 /// The CPU works in two passes. A pass over the triangles (parallel, in chunks) sets up those
 /// that can cover a sample. It takes them in blocks of eight: the box, extent and sample box (the
