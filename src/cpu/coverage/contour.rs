@@ -40,7 +40,7 @@ const FACES_PER_TASK: usize = 16384;
 /// Crossings from which the sweep splits its rows into halves swept in parallel.
 const PARALLEL_CROSSINGS: usize = 16384;
 
-/// The buffers of [`coverage_from_contour`], kept from forward to forward.
+/// The buffers of [`coverage`], kept from forward to forward.
 #[derive(Clone, Debug, Default)]
 pub struct ContourScratch {
     /// The sign of every face's snapped area (0: a clipped vertex or zero area).
@@ -67,12 +67,15 @@ struct Crossing {
     net: i32,
 }
 
-/// Writes every pixel's sample mask, the same bits as [`coverage`](super::coverage), from the
-/// contour (see the module's notes). Reads the snapped vertices and the topology; writes `masks`
-/// (`pixel_count · words_per_pixel` words), every triangle's snapped box into `boxes` (as
-/// [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes them) and returns the summary
-/// the `bin` stage's tile size is chosen from.
-pub fn coverage_from_contour(
+/// `coverage`: writes every pixel's sample mask from the view's contour (see the module's notes
+/// for why the masks are exact), the same bits as drawing every triangle
+/// ([`draw_triangles`](super::draw_triangles)). Reads the snapped vertices and the topology;
+/// writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
+/// snapped box into `boxes` (as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes
+/// them; the backward bins from them without reading the vertices again), and returns the
+/// summary the `bin` stage's tile size is chosen from. `scratch` keeps the pass's buffers from
+/// call to call.
+pub fn coverage(
     params: &RasterParams,
     snapped: &[[i32; 2]],
     topology: &Topology,
@@ -91,7 +94,7 @@ pub fn coverage_from_contour(
 }
 
 /// Every face's snapped box (into `boxes`, [`CULLED_BOX`] for a clipped one) and the sign of its
-/// snapped area (into `signs`), and the summary of [`coverage`](super::coverage): one pass over
+/// snapped area (into `signs`), and the summary of [`coverage`]: one pass over
 /// the faces in blocks of eight, in parallel tasks for a large mesh.
 fn face_signs(
     snapped: &[[i32; 2]],
@@ -401,7 +404,7 @@ mod tests {
     use crate::cpu::coverage::{draw_triangles, xorshift, BackFaceSkip};
     use crate::mirror::{ScreenVertex, COORD_LIMIT, INVALID_SNAPPED_VERTEX};
 
-    /// The masks, boxes and summary of [`coverage_from_contour`] and of drawing the triangles.
+    /// The masks, boxes and summary of [`coverage`] and of drawing the triangles.
     fn both(
         params: &RasterParams,
         snapped: &[[i32; 2]],
@@ -417,9 +420,9 @@ mod tests {
         let (mut masks, mut boxes) = (vec![u32::MAX; words], vec![[7; 4]; n]);
         let mut scratch = ContourScratch::default();
         for _ in 0..2 {
-            coverage_from_contour(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
+            coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
         }
-        let filled = coverage_from_contour(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
+        let filled = coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
         [a, (masks, boxes, filled)]
     }
 
@@ -604,7 +607,7 @@ mod tests {
             // The rows halved down to single rows: the same masks.
             let mut scratch = ContourScratch::default();
             let (mut boxes, mut masks) = (vec![[0; 4]; sphere.triangles().len()], vec![u32::MAX; drawn.0.len()]);
-            coverage_from_contour(&params, &snapped, sphere.topology(), &mut boxes, &mut masks, &mut scratch);
+            coverage(&params, &snapped, sphere.topology(), &mut boxes, &mut masks, &mut scratch);
             masks.fill(u32::MAX);
             sweep(&params, &mut scratch.by_row, &scratch.row_offsets, &mut masks, 1);
             assert_eq!(drawn.0, masks, "{res}² F={f}, rows in parallel halves");

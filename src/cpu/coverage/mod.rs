@@ -17,31 +17,13 @@ mod setup;
 mod triangle;
 
 use crate::mirror::RasterParams;
-use crate::scene::mesh::Topology;
 
 pub use back_face::BackFaceSkip;
 use bands::{draw_direct, draw_in_bands, DIRECT_WORDS};
-pub use contour::ContourScratch;
+pub use contour::{coverage, ContourScratch};
 use setup::SetupPass;
 pub use setup::TriangleSummary;
 pub use triangle::SnappedTriangle;
-
-/// Writes every pixel's sample mask from the view's contour (see [`contour`] for why the masks are exact).
-/// Reads the snapped vertices and the topology; writes `masks` (`pixel_count · words_per_pixel`
-/// words) and, on the way, every triangle's snapped bounding box into `boxes` (one per triangle,
-/// as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes them; the backward bins from
-/// them without reading the vertices again). The masks are those of drawing every triangle,
-/// [`draw_triangles`], bit for bit; `scratch` keeps the pass's buffers from call to call.
-pub fn coverage(
-    params: &RasterParams,
-    snapped: &[[i32; 2]],
-    topology: &Topology,
-    boxes: &mut [[i32; 4]],
-    masks: &mut [u32],
-    scratch: &mut ContourScratch,
-) -> TriangleSummary {
-    contour::coverage_from_contour(params, snapped, topology, boxes, masks, scratch)
-}
 
 /// The masks of [`coverage`] by drawing every triangle, as the WGSL stage does (the forward no
 /// longer runs it; it is the reference the contour fill is tested against). Reads the snapped
