@@ -19,8 +19,8 @@
 //!
 //! Where the CPU departs from the WGSL stages' shape for speed, the result is the same bit for bit
 //! (tested): coverage fills the masks from the view's contour ([`coverage::contour`]) instead of
-//! drawing every triangle, and writes every triangle's snapped box for the backward; `edge_grad` lists occluders only for the cells it
-//! needs and stops on hidden segments; `gather` scatters
+//! drawing every triangle, and writes every triangle's snapped box for the backward; `edge_grad`
+//! lists occluders only for the cells it needs and stops on hidden segments; `gather` scatters
 //! the candidates' slots instead of reading every edge's.
 
 pub mod bin;
