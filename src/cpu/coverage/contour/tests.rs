@@ -1,0 +1,215 @@
+//! The contour fill against drawing every triangle, and the face signs against i64 areas.
+
+use super::*;
+use crate::cpu::coverage::{draw_triangles, xorshift, BackFaceSkip};
+use crate::mirror::{ScreenVertex, COORD_LIMIT, INVALID_SNAPPED_VERTEX};
+
+/// The masks, boxes and summary of [`coverage`] and of drawing the triangles.
+fn both(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    topology: &Topology,
+) -> [(Vec<u32>, Vec<[i32; 4]>, TriangleSummary); 2] {
+    let n = topology.triangles().len();
+    let words = params.pixel_count() * params.words_per_pixel as usize;
+    let (mut masks, mut boxes) = (vec![0u32; words], vec![[0; 4]; n]);
+    let skip = BackFaceSkip::new(topology, snapped);
+    let drawn = draw_triangles(params, snapped, topology.triangles(), skip.as_ref(), &mut boxes, &mut masks);
+    let a = (masks, boxes, drawn);
+    // Stale contents in the outputs and the scratch must not matter.
+    let (mut masks, mut boxes) = (vec![u32::MAX; words], vec![[7; 4]; n]);
+    let mut scratch = ContourScratch::default();
+    for _ in 0..2 {
+        coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
+    }
+    let filled = coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
+    [a, (masks, boxes, filled)]
+}
+
+/// `(g, s, t)` with `a·s + b·t = g = gcd(a, b)`.
+fn extended_gcd(a: i64, b: i64) -> (i64, i64, i64) {
+    if b == 0 {
+        (a.abs(), a.signum(), 0)
+    } else {
+        let (g, s, t) = extended_gcd(b, a.rem_euclid(b));
+        (g, t, s - a.div_euclid(b) * t)
+    }
+}
+
+/// Face signs and boxes against i64 areas and `bin::snapped_boxes`, for coordinates of every
+/// size (blocks on the f64 path, differences below 2^26, and on the i64 one above it),
+/// slivers of snapped area ±1 unit² whose two products are about 2^6, 2^46 or 2^54, clipped
+/// vertices, and every length of the last block.
+#[test]
+fn face_signs_are_exact() {
+    let mut rand = xorshift(0x2545_f491_4f6c_dd1d);
+    for n in (0..=2 * BLOCK + 1).chain([100, 3 * FACES_PER_TASK + 5]) {
+        let mut snapped = Vec::new();
+        for k in 0..n {
+            // One size per block, so that whole blocks take each path.
+            let scale = [1 << 10, 1 << 24, 1 << 28][k / BLOCK % 3] as f64;
+            let mut coord = || ((rand() - 0.5) * scale) as i64;
+            let v0 = [coord(), coord()];
+            let mut v: [[i64; 2]; 3] = [v0, [coord(), coord()], [coord(), coord()]];
+            if k % 2 == 1 {
+                // A sliver: v2 − v0 = b + d with cross(d, b) = ±1, d = v1 − v0 (gcd 1).
+                // |d| of at least half the scale, so that the top size's products exceed 2^53.
+                let mut half = |sign: bool| (scale * (0.5 + 0.25 * rand())) as i64 * if sign { 1 } else { -1 };
+                let mut d = [half(k % 3 == 0), half(k % 5 < 2)];
+                while extended_gcd(d[0], d[1]).0 != 1 {
+                    d[0] += 1;
+                }
+                let (_, s, t) = extended_gcd(d[0], d[1]);
+                let flip = if k % 4 == 1 { 1 } else { -1 };
+                let b = [-t * flip, s * flip];
+                v[1] = [v0[0] + d[0], v0[1] + d[1]];
+                v[2] = [v0[0] + b[0] + d[0], v0[1] + b[1] + d[1]];
+            }
+            let mut v = v.map(|p| [p[0] as i32, p[1] as i32]);
+            if k % 9 == 4 && k / BLOCK % 4 == 3 {
+                v[k % 3] = INVALID_SNAPPED_VERTEX;
+            }
+            snapped.extend(v);
+        }
+        let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let (mut signs, mut boxes) = (vec![9i8; n], vec![[5; 4]; n]);
+        face_signs(&snapped, &triangles, 1 << 20, &mut signs, &mut boxes);
+        assert_eq!(boxes, crate::cpu::bin::snapped_boxes(&snapped, &triangles), "n = {n}");
+        for (k, t) in triangles.iter().enumerate() {
+            let v = t.map(|i| snapped[i as usize]);
+            let expected = if v.contains(&INVALID_SNAPPED_VERTEX) {
+                0
+            } else {
+                let w = v.map(|p| [p[0] as i64, p[1] as i64]);
+                let area2 = crate::cpu::coverage::triangle::area2(&w);
+                if k % 2 == 1 {
+                    assert_eq!(area2.abs(), 1, "the sliver's area");
+                }
+                area2.signum() as i8
+            };
+            assert_eq!(signs[k], expected, "n = {n}, face {k}: {v:?}");
+        }
+    }
+}
+
+/// Closed meshes, meshes with holes, flipped faces and open patches, under random (folded)
+/// 2D placements with many exact ties on sample positions: the same masks, boxes and summary.
+#[test]
+fn contour_fill_matches_drawing_on_meshes() {
+    let mut rand = xorshift(0x5851_f42d_4c95_7f2d);
+    let sphere = crate::scene::shapes::icosphere(3);
+    let closed = sphere.triangles().to_vec();
+    let mut covered_some = false;
+    for case in 0..160 {
+        let mut triangles = closed.clone();
+        match case % 5 {
+            0 => {}
+            1 => triangles.retain(|_| rand() > 0.05),
+            2 => triangles.iter_mut().filter(|_| rand() < 0.03).for_each(|t| t.swap(1, 2)),
+            3 => triangles.truncate(triangles.len() / 2),
+            _ => {
+                // Non-manifold: some faces repeated, some repeated flipped, some degenerate.
+                let extra: Vec<[u32; 3]> = triangles.iter().filter(|_| rand() < 0.05).copied().collect();
+                triangles.extend(extra.iter().map(|t| [t[0], t[2], t[1]]));
+                triangles.extend(extra.iter().take(20));
+                triangles.extend(extra.iter().take(10).map(|t| [t[0], t[0], t[1]]));
+            }
+        }
+        let f = [1, 2, 3, 4, 5, 6][case % 6];
+        let (w, h) = (23 + case as u32 % 9, 17 + case as u32 % 5);
+        let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
+        let topology = Topology::new(sphere.positions().len(), triangles).unwrap();
+        let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand(), rand()];
+        let grid = 2.0 * f as f64;
+        let scale = [0.45, 0.45, 0.2, 1.5][case % 4];
+        let mut snapped: Vec<[i32; 2]> = sphere
+            .positions()
+            .iter()
+            .map(|p| {
+                let (x, y) = (p.x as f64, p.y as f64 + m[5] * p.z as f64);
+                let noise = if case % 3 == 0 { 0.0 } else { 0.6 };
+                let sx = w as f64 * (0.5 + scale * (m[0] * x + m[1] * y)) + noise * (rand() - 0.5);
+                let sy = h as f64 * (0.5 + scale * (m[2] * x + m[3] * y)) + noise * (rand() - 0.5);
+                let q = |c: f64| ((c * grid).round() / grid) as f32;
+                params.snap_vertex(&ScreenVertex { position: [q(sx), q(sy)], valid: 1, pad: 0 })
+            })
+            .collect();
+        if case % 7 == 3 {
+            // Clipped vertices: their faces are culled.
+            for v in snapped.iter_mut().filter(|_| rand() < 0.02) {
+                *v = INVALID_SNAPPED_VERTEX;
+            }
+        }
+        let [drawn, filled] = both(&params, &snapped, &topology);
+        assert_eq!(drawn.1, filled.1, "case {case}: boxes");
+        assert_eq!(drawn.2, filled.2, "case {case}: summary");
+        assert_eq!(drawn.0, filled.0, "case {case}: masks");
+        covered_some |= drawn.0.iter().any(|&m| m != 0) && drawn.0.contains(&0);
+    }
+    assert!(covered_some);
+}
+
+/// Triangle soups (no shared edges), large triangles with vertices far off the image and at
+/// the coordinate limit, and slivers: the same masks.
+#[test]
+fn contour_fill_matches_drawing_on_soups() {
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
+    let mut rand = move || next() as f32;
+    for case in 0..40 {
+        let (f, w, h) = [(4, 13, 9), (3, 10, 12), (1, 17, 5), (7, 8, 8)][case % 4];
+        let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
+        let n = [1, 7, 60, 400][case % 4];
+        let mut screen = Vec::new();
+        for k in 0..n {
+            let c = [rand() * (w as f32 + 6.0) - 3.0, rand() * (h as f32 + 6.0) - 3.0];
+            let size = [0.3, 1.5, 6.0, 40.0][k % 4];
+            for j in 0..3 {
+                let mut p = [c[0] + (rand() - 0.5) * size, c[1] + (rand() - 0.5) * size];
+                if k % 11 == 5 && j == 1 {
+                    p[0] = (COORD_LIMIT - 1.0) * if k % 2 == 0 { 1.0 } else { -1.0 };
+                }
+                if k % 17 == 3 && j == 2 {
+                    p[1] = -(COORD_LIMIT - 1.0);
+                }
+                if k % 5 == 4 {
+                    p = p.map(|c| (c * 2.0 * f as f32).round() / (2.0 * f as f32));
+                }
+                screen.push(ScreenVertex { position: p, valid: (k % 13 != 7 || j != 2) as u32, pad: 0 });
+            }
+        }
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let topology = Topology::new(snapped.len(), triangles).unwrap();
+        let [drawn, filled] = both(&params, &snapped, &topology);
+        assert_eq!(drawn, filled, "case {case}");
+    }
+}
+
+/// Large meshes take the parallel paths (faces in tasks, rows in halves): the same masks as
+/// drawing, at several resolutions.
+#[test]
+fn contour_fill_matches_drawing_in_parallel() {
+    let sphere = crate::scene::shapes::icosphere(6);
+    assert!(sphere.triangles().len() > 2 * FACES_PER_TASK);
+    for (res, f) in [(16, 4), (200, 4), (300, 3)] {
+        let params = RasterParams::new(res, res, f, 1.0, 0.0).unwrap();
+        let snapped: Vec<[i32; 2]> = sphere
+            .positions()
+            .iter()
+            .map(|p| {
+                let s = res as f32 * 0.4;
+                let q = [res as f32 / 2.0 + s * (p.x + 0.3 * p.z), res as f32 / 2.0 - s * (p.y + 0.2 * p.x * p.x)];
+                params.snap_vertex(&ScreenVertex { position: q, valid: 1, pad: 0 })
+            })
+            .collect();
+        let [drawn, filled] = both(&params, &snapped, sphere.topology());
+        assert_eq!(drawn, filled, "{res}² F={f}");
+        // The rows halved down to single rows: the same masks.
+        let mut scratch = ContourScratch::default();
+        let (mut boxes, mut masks) = (vec![[0; 4]; sphere.triangles().len()], vec![u32::MAX; drawn.0.len()]);
+        coverage(&params, &snapped, sphere.topology(), &mut boxes, &mut masks, &mut scratch);
+        masks.fill(u32::MAX);
+        sweep(&params, &mut scratch.by_row, &scratch.row_offsets, &mut masks, 1);
+        assert_eq!(drawn.0, masks, "{res}² F={f}, rows in parallel halves");
+    }
+}
