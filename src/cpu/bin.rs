@@ -12,6 +12,8 @@
 use rayon::prelude::*;
 
 use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED_VERTEX};
+use crate::scene::mesh::Topology;
+use crate::scene::patches::FacePatches;
 
 /// Per-tile triangle lists in CSR form.
 #[derive(Clone, Debug, Default)]
@@ -332,40 +334,99 @@ impl TileDiv for Divide {
     }
 }
 
-/// Appends `(slots[t], first + k)` for each wanted tile `t` in the tile range of the `k`-th
-/// box of `chunk` ([`triangle_tiles`] from the triangle's snapped box, computed here with
-/// `div`).
-fn tile_pairs<D: TileDiv>(
+/// The cells `[x0, x1, y0, y1]` (inclusive) that the snapped box `b`, grown by one unit on each
+/// side, meets ([`triangle_tiles`] from the box, computed with `div`), or `None` when it meets
+/// none (off the image, or [`CULLED_BOX`], whose `x1` is negative).
+#[inline(always)]
+fn grown_cells<D: TileDiv>(div: D, range: &TileRange, b: &[i32; 4]) -> Option<[usize; 4]> {
+    let (x0, y0) = (b[0] as i64 - 1, b[1] as i64 - 1);
+    let (x1, y1) = (b[2] as i64 + 1, b[3] as i64 + 1);
+    if x1 < 0 || y1 < 0 || x0 >= range.limit[0] || y0 >= range.limit[1] {
+        return None;
+    }
+    let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
+    Some([
+        div.div(x0.max(0) as u64),
+        div.div(x1 as u64).min(last_x),
+        div.div(y0.max(0) as u64),
+        div.div(y1 as u64).min(last_y),
+    ])
+}
+
+/// Appends `(slots[c], triangle)` for each wanted cell `c` that the grown box `b` meets.
+#[inline(always)]
+fn box_pairs<D: TileDiv>(
     div: D,
     range: &TileRange,
     slots: &[u32],
-    chunk: &[[i32; 4]],
-    first: u32,
+    b: &[i32; 4],
+    triangle: u32,
     pairs: &mut Vec<(u32, u32)>,
 ) {
+    let Some([tx0, tx1, ty0, ty1]) = grown_cells(div, range, b) else { return };
     let tiles_x = range.tiles_x;
-    let (last_x, last_y) = (range.last[0] as usize, range.last[1] as usize);
-    for (k, b) in (first..).zip(chunk) {
-        // A culled triangle's box is CULLED_BOX, whose x1 is negative.
-        let (x0, y0) = (b[0] as i64 - 1, b[1] as i64 - 1);
-        let (x1, y1) = (b[2] as i64 + 1, b[3] as i64 + 1);
-        if x1 < 0 || y1 < 0 || x0 >= range.limit[0] || y0 >= range.limit[1] {
+    for ty in ty0..=ty1 {
+        for &slot in &slots[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
+            if slot != u32::MAX {
+                pairs.push((slot, triangle));
+            }
+        }
+    }
+}
+
+/// Whether the grown box `b` meets a wanted cell.
+#[inline(always)]
+fn meets_wanted<D: TileDiv>(div: D, range: &TileRange, slots: &[u32], b: &[i32; 4]) -> bool {
+    let Some([tx0, tx1, ty0, ty1]) = grown_cells(div, range, b) else { return false };
+    let tiles_x = range.tiles_x;
+    (ty0..=ty1).any(|ty| slots[ty * tiles_x + tx0..=ty * tiles_x + tx1].iter().any(|&slot| slot != u32::MAX))
+}
+
+/// Appends the `(slots[c], triangle)` pairs of the patches `first..end` of `patches`, patch after
+/// patch, each patch's in its face order: a patch whose faces' boxes together (their union) meet
+/// no wanted cell has none, and is passed over after one test. The pairs of a triangle of
+/// positive on-screen area (`orientation` 1) carry [`POSITIVE`] in their triangle index.
+#[allow(clippy::too_many_arguments)]
+fn patch_pairs<D: TileDiv>(
+    div: D,
+    range: &TileRange,
+    slots: &[u32],
+    (boxes, orientation): (&[[i32; 4]], &[i8]),
+    patches: &FacePatches,
+    (first, end): (usize, usize),
+    pairs: &mut Vec<(u32, u32)>,
+) {
+    for p in first..end {
+        let faces = patches.patch(p);
+        // CULLED_BOX is the union's identity.
+        let union = faces.iter().fold(CULLED_BOX, |u, &t| {
+            let b = &boxes[t as usize];
+            [u[0].min(b[0]), u[1].min(b[1]), u[2].max(b[2]), u[3].max(b[3])]
+        });
+        if !meets_wanted(div, range, slots, &union) {
             continue;
         }
-        let (tx0, tx1) = (div.div(x0.max(0) as u64), div.div(x1 as u64).min(last_x));
-        let (ty0, ty1) = (div.div(y0.max(0) as u64), div.div(y1 as u64).min(last_y));
-        for ty in ty0..=ty1 {
-            for &slot in &slots[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
-                if slot != u32::MAX {
-                    pairs.push((slot, k));
+        for &t in faces {
+            let start = pairs.len();
+            box_pairs(div, range, slots, &boxes[t as usize], t, pairs);
+            if pairs.len() > start && orientation[t as usize] > 0 {
+                for pair in &mut pairs[start..] {
+                    pair.1 |= POSITIVE;
                 }
             }
         }
     }
 }
 
-/// Triangles per parallel task of [`bin_tiles`].
-const TRIANGLES_PER_TASK: usize = 16384;
+/// The bit of a pair's triangle index in [`patch_pairs`] that marks a triangle of positive
+/// on-screen area (free: a topology has fewer than 2³⁰ triangles).
+const POSITIVE: u32 = 1 << 31;
+
+/// Entries of the occluder lists per parallel task of [`bin_tiles`]' fill.
+const ENTRIES_PER_TASK: usize = 4096;
+
+/// Face patches per parallel task of [`bin_tiles`] (about 10k triangles).
+const PATCHES_PER_TASK: usize = 512;
 
 /// The occluder lists of [`bin_tiles`] and the buffers that build them, kept from call to call
 /// so that a loop of backward passes does not allocate them again.
@@ -385,7 +446,8 @@ pub struct CellBins {
 /// The lists of [`bin`] for some cells of `grid` only (its tiles with [`CellGrid::tiles`]): cell
 /// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `out.bins.tile(slots[t])`
 /// (`0..lists`), which holds the same triangles as [`bin`]'s list: first those of positive
-/// on-screen area in triangle order, then the others in reverse triangle order. Used by the
+/// on-screen area in the order of the topology's face patches ([`Topology::face_patches`]),
+/// then the others in the reverse of that order. Used by the
 /// CPU backward, which needs lists only where silhouette segments with a non-zero incoming
 /// gradient lie. `out`'s buffers are refilled (allocated only where they must grow).
 ///
@@ -396,22 +458,29 @@ pub struct CellBins {
 /// no result: a scan's intervals are kept sorted, and its early stop needs only the whole
 /// segment covered.
 ///
-/// Reads the triangles' snapped boxes (`boxes`, one per triangle, as [`snapped_boxes`] gives them
-/// and the CPU `coverage` pass writes them) rather than their snapped vertices: one pass, no
-/// gather, in parallel over runs of consecutive triangles (each gives its `(list, triangle)`
-/// pairs in triangle order); then one counting sort by list, filling each list from both ends.
+/// Reads the triangles' snapped boxes (`faces.0`, one per triangle, as [`snapped_boxes`] gives
+/// them and the CPU `coverage` pass writes them) rather than their snapped vertices, and their
+/// orientations (`faces.1`, as [`face_orientations`](super::edges::face_orientations) gives
+/// them: positive on-screen area is 1), patch by patch
+/// in parallel over runs of patches: the union of a patch's boxes first, and its faces' boxes
+/// only when that union meets a wanted cell (a patch is a small connected piece of the surface,
+/// so away from the silhouette most patches are passed over after that one test). Then one
+/// counting sort of the triangle indices by list, filling each list from both ends, and each
+/// entry's float box and vertices in parallel.
 #[allow(clippy::too_many_arguments)]
 pub fn bin_tiles(
     params: &RasterParams,
     grid: CellGrid,
     screen: &[ScreenVertex],
-    triangles: &[[u32; 3]],
-    boxes: &[[i32; 4]],
+    topology: &Topology,
+    faces: (&[[i32; 4]], &[i8]),
     slots: &[u32],
     lists: usize,
     out: &mut CellBins,
 ) {
     let range = TileRange::of_grid(params, grid);
+    let triangles = topology.triangles();
+    let patches = topology.face_patches();
     let CellBins { bins, pairs, cursor, back } = out;
     bins.offsets.clear();
     bins.offsets.resize(lists + 1, 0);
@@ -421,16 +490,17 @@ pub fn bin_tiles(
     if lists == 0 {
         return;
     }
-    pairs.resize_with(boxes.len().div_ceil(TRIANGLES_PER_TASK), Vec::new);
-    pairs.par_iter_mut().zip(boxes.par_chunks(TRIANGLES_PER_TASK)).enumerate().for_each(|(task, (pairs, chunk))| {
+    let tasks = patches.len().div_ceil(PATCHES_PER_TASK);
+    pairs.resize_with(tasks, Vec::new);
+    pairs[..tasks].par_iter_mut().enumerate().for_each(|(task, pairs)| {
         pairs.clear();
-        let first = (task * TRIANGLES_PER_TASK) as u32;
+        let run = (task * PATCHES_PER_TASK, ((task + 1) * PATCHES_PER_TASK).min(patches.len()));
         match range.shift {
-            Some(shift) => tile_pairs(Shift(shift), &range, slots, chunk, first, pairs),
-            None => tile_pairs(Divide(range.tile_units), &range, slots, chunk, first, pairs),
+            Some(shift) => patch_pairs(Shift(shift), &range, slots, faces, patches, run, pairs),
+            None => patch_pairs(Divide(range.tile_units), &range, slots, faces, patches, run, pairs),
         }
     });
-    let parts = &pairs[..boxes.len().div_ceil(TRIANGLES_PER_TASK)];
+    let parts = &pairs[..tasks];
     for &(slot, _) in parts.iter().flatten() {
         bins.offsets[slot as usize + 1] += 1;
     }
@@ -443,21 +513,8 @@ pub fn bin_tiles(
     back.clear();
     back.extend_from_slice(&bins.offsets[1..]);
     bins.triangles.resize(entries, 0);
-    bins.boxes.resize(entries, [0.0; 4]);
-    bins.vertices.resize(entries, [[0.0; 2]; 3]);
-    // A triangle's pairs follow each other: its box, vertices and orientation once for all.
-    let mut last = None;
     for &(slot, t) in parts.iter().flatten() {
-        let (bbox, v, positive) = match last {
-            Some((u, entry)) if u == t => entry,
-            _ => {
-                let (bbox, v) = float_box(screen, triangles[t as usize]);
-                let entry = (bbox, v, positive_area(v));
-                last = Some((t, entry));
-                entry
-            }
-        };
-        let at = if positive {
+        let at = if t & POSITIVE != 0 {
             let c = &mut cursor[slot as usize];
             *c += 1;
             *c - 1
@@ -466,20 +523,33 @@ pub fn bin_tiles(
             *c -= 1;
             *c
         } as usize;
-        (bins.boxes[at], bins.vertices[at], bins.triangles[at]) = (bbox, v, t);
+        bins.triangles[at] = t & !POSITIVE;
     }
-}
-
-/// Whether a triangle's on-screen vertices run with positive area (`cross(b − a, c − a) > 0`).
-#[inline]
-fn positive_area(v: [[f32; 2]; 3]) -> bool {
-    let p = v.map(|p| [p[0] as f64, p[1] as f64]);
-    (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) > (p[1][1] - p[0][1]) * (p[2][0] - p[0][0])
+    // Each entry's float box and vertices, in parallel.
+    bins.boxes.resize(entries, [0.0; 4]);
+    bins.vertices.resize(entries, [[0.0; 2]; 3]);
+    bins.boxes
+        .par_chunks_mut(ENTRIES_PER_TASK)
+        .zip(bins.vertices.par_chunks_mut(ENTRIES_PER_TASK))
+        .zip(bins.triangles.par_chunks(ENTRIES_PER_TASK))
+        .for_each(|((boxes, vertices), listed)| {
+            for ((bbox, v), &t) in boxes.iter_mut().zip(vertices).zip(listed) {
+                (*bbox, *v) = float_box(screen, triangles[t as usize]);
+            }
+        });
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::edges;
+
+    /// Whether a triangle's on-screen vertices run with positive area (`cross(b − a, c − a) > 0`),
+    /// as first written.
+    fn positive_area(v: [[f32; 2]; 3]) -> bool {
+        let p = v.map(|p| [p[0] as f64, p[1] as f64]);
+        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) > (p[1][1] - p[0][1]) * (p[2][0] - p[0][0])
+    }
 
     /// The tile range as first written: pixel range by Euclidean division, then tiles.
     fn reference_tiles(params: &RasterParams, snapped: &[[i32; 2]], tri: [u32; 3]) -> Option<[u32; 4]> {
@@ -554,6 +624,111 @@ mod tests {
         }
     }
 
+    /// `bin_tiles` over small cells of a projected sphere of small triangles with a few cells
+    /// wanted (most patches passed over): each wanted cell lists exactly the triangles whose
+    /// grown snapped box overlaps the cell's part of the image, in patch order (positive first).
+    #[test]
+    fn patches_passed_over_lose_no_triangle() {
+        let sphere = crate::scene::shapes::icosphere(3);
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut rand = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut lists = CellBins::default();
+        let mut skipped = 0;
+        for case in 0..24 {
+            let params = RasterParams::new(40, 24, [1, 3, 4][case % 3], 1.0, 0.0).unwrap();
+            // A random rotation about z then x, scaled to about the image's height; a third of
+            // the vertices on whole pixels (boxes on cell borders), a few clipped.
+            let (a, b) = (rand() * 6.3, rand() * 6.3);
+            let screen: Vec<ScreenVertex> = sphere
+                .positions()
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    let (x, y) =
+                        (p.x as f64 * a.cos() - p.y as f64 * a.sin(), p.x as f64 * a.sin() + p.y as f64 * a.cos());
+                    let y = y * b.cos() - p.z as f64 * b.sin();
+                    let mut q = [(20.0 + 13.0 * x) as f32, (12.0 + 13.0 * y) as f32];
+                    if k % 3 == 0 {
+                        q = q.map(f32::round);
+                    }
+                    ScreenVertex { position: q, valid: (k % 97 != 5) as u32, pad: 0 }
+                })
+                .collect();
+            let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+            let topology = sphere.topology();
+            let triangles = topology.triangles();
+            let boxes = snapped_boxes(&snapped, triangles);
+            let mut orientation = vec![0; triangles.len()];
+            edges::face_orientations(&screen, triangles, &mut orientation);
+            let grid = CellGrid::new(&params, [4, 8, 16, 64][case % 4]);
+            // Wanted: a few cells at or just beyond a random triangle's left or top side, where
+            // a patch's box decides alone whether the cell's triangles are found.
+            let mut slots = vec![u32::MAX; grid.count()];
+            let mut wanted = Vec::new();
+            let u = grid.cell_units as f64;
+            while wanted.len() < 6 {
+                let b = boxes[(rand() * triangles.len() as f64) as usize];
+                if b == CULLED_BOX {
+                    continue;
+                }
+                let (mut x, mut y) =
+                    (b[0] as f64 + rand() * (b[2] - b[0]) as f64, b[1] as f64 + rand() * (b[3] - b[1]) as f64);
+                if rand() < 0.5 {
+                    x = b[0] as f64 - 1.0 - rand() * 2.0 * u;
+                } else {
+                    y = b[1] as f64 - 1.0 - rand() * 2.0 * u;
+                }
+                let (cx, cy) = ((x / u).floor(), (y / u).floor());
+                if cx < 0.0 || cy < 0.0 || cx >= grid.cells_x as f64 || cy >= grid.cells_y as f64 {
+                    continue;
+                }
+                let c = cy as usize * grid.cells_x as usize + cx as usize;
+                if slots[c] == u32::MAX {
+                    slots[c] = wanted.len() as u32;
+                    wanted.push(c);
+                }
+            }
+            let faces = (&boxes[..], &orientation[..]);
+            bin_tiles(&params, grid, &screen, topology, faces, &slots, wanted.len(), &mut lists);
+            let (u, limit) = (grid.cell_units as i64, [40 * params.units as i64, 24 * params.units as i64]);
+            let overlaps = |b: [i32; 4], c: usize| {
+                let cell = [(c % grid.cells_x as usize) as i64, (c / grid.cells_x as usize) as i64];
+                b != CULLED_BOX
+                    && (0..2).all(|k| {
+                        (b[k] as i64 - 1).max(cell[k] * u)
+                            <= (b[k + 2] as i64 + 1).min((cell[k] + 1) * u - 1).min(limit[k] - 1)
+                    })
+            };
+            let order = topology.face_patches().faces();
+            for (slot, &c) in wanted.iter().enumerate() {
+                let listed: Vec<u32> = order.iter().copied().filter(|&t| overlaps(boxes[t as usize], c)).collect();
+                let (mut expected, mut other): (Vec<u32>, Vec<u32>) = listed
+                    .iter()
+                    .partition(|&&t| positive_area(triangles[t as usize].map(|v| screen[v as usize].position)));
+                other.reverse();
+                expected.extend(other);
+                let got: Vec<u32> = lists.bins.tile(slot).map(|(t, _, _)| t).collect();
+                assert_eq!(got, expected, "case {case} cell {c}");
+                for (t, b, v) in lists.bins.tile(slot) {
+                    assert_eq!((*b, *v), float_box(&screen, triangles[t as usize]));
+                }
+            }
+            // The test is about the patches that are passed over: count those that overlap no
+            // wanted cell although some of their triangles' boxes come within a cell of one.
+            skipped += topology
+                .face_patches()
+                .iter()
+                .filter(|patch| !patch.iter().any(|&t| wanted.iter().any(|&c| overlaps(boxes[t as usize], c))))
+                .count();
+        }
+        assert!(skipped > 100, "{skipped}");
+    }
+
     /// `bin_tiles` lists, for each wanted tile, what `bin` lists for it.
     #[test]
     fn wanted_tiles_get_the_full_lists() {
@@ -572,11 +747,21 @@ mod tests {
                 wanted.push(t);
             }
             let boxes = snapped_boxes(&snapped, &triangles);
-            bin_tiles(&params, CellGrid::tiles(&params), &screen, &triangles, &boxes, &slots, wanted.len(), &mut lists);
+            let topology = Topology::new(screen.len(), triangles.clone()).unwrap();
+            let mut orientation = vec![0; triangles.len()];
+            edges::face_orientations(&screen, &triangles, &mut orientation);
+            let faces = (&boxes[..], &orientation[..]);
+            bin_tiles(&params, CellGrid::tiles(&params), &screen, &topology, faces, &slots, wanted.len(), &mut lists);
+            // Each face's place in patch order.
+            let mut place = vec![0; triangles.len()];
+            for (k, &f) in topology.face_patches().faces().iter().enumerate() {
+                place[f as usize] = k;
+            }
             for (slot, &t) in wanted.iter().enumerate() {
-                // The same entries; the positive triangles first in triangle order, then the
-                // others in reverse order.
-                let a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
+                // The same entries; the positive triangles first in patch order, then the
+                // others in reverse patch order.
+                let mut a: Vec<_> = full.tile(t).map(|(i, b, v)| (i, *b, *v)).collect();
+                a.sort_by_key(|e| place[e.0 as usize]);
                 let (mut positive, mut other): (Vec<_>, Vec<_>) = a.into_iter().partition(|e| positive_area(e.2));
                 other.reverse();
                 positive.extend(other);

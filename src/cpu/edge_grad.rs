@@ -12,7 +12,6 @@ use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
 use super::bin::{self, Bins, CellGrid};
-use super::edges;
 use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::reference::closed_form::{clip_parameter, segment_weights};
@@ -131,10 +130,9 @@ fn covers_line(dot: f64, yields: bool) -> bool {
 /// triangle `t < rank` on the same side is left to that triangle's edge; `e`'s own faces never
 /// rank before it. Of two coincident edges `e1`, `e2` exactly one ranks first, and its lowest
 /// covering face takes the stretch from the other.
-fn coincident_rank(screen: &[ScreenVertex], topology: &Topology, e: u32) -> u32 {
-    let triangles = topology.triangles();
+fn coincident_rank(orientation: &[i8], topology: &Topology, e: u32) -> u32 {
     let faces = topology.edge_faces(e as usize);
-    faces.iter().copied().find(|&f| edges::face_orientation(screen, triangles[f as usize]) != 0).unwrap_or(u32::MAX)
+    faces.iter().copied().find(|&f| orientation[f as usize] != 0).unwrap_or(u32::MAX)
 }
 
 /// One piece of a candidate edge: its part in one pixel with a non-zero incoming gradient.
@@ -380,9 +378,9 @@ pub struct EdgeGradScratch {
 /// `grid` rather than the tiles ([`CellGrid::for_extent`]: cells smaller than a pixel when the
 /// triangles are).
 ///
-/// Reads screen vertices, the triangles and their snapped boxes (as the `coverage` pass writes
-/// them, [`bin::snapped_boxes`]), the candidates `(edge, side)` of the `edges`
-/// stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
+/// Reads screen vertices, the triangles, their snapped boxes (as the `coverage` pass writes
+/// them, [`bin::snapped_boxes`]) and orientations ([`face_orientations`](super::edges::face_orientations)), the candidates
+/// `(edge, side)` of the `edges` stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
 /// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
 /// segment is in the list of one of the segment's cells, and a triangle found twice or one that
 /// is no occluder adds nothing. `scratch` holds the buffers of the walk, the lists and the scans
@@ -393,6 +391,7 @@ pub fn edge_grad(
     grid: CellGrid,
     screen: &[ScreenVertex],
     boxes: &[[i32; 4]],
+    orientation: &[i8],
     topology: &Topology,
     candidates: &[(u32, i32)],
     d_image: &[f32],
@@ -439,7 +438,7 @@ pub fn edge_grad(
             }
         }
     }
-    bin::bin_tiles(params, grid, screen, topology.triangles(), boxes, cell_lists, lists as usize, cell_bins);
+    bin::bin_tiles(params, grid, screen, topology, (boxes, orientation), cell_lists, lists as usize, cell_bins);
     let bins = &cell_bins.bins;
     results.clear();
     results.resize(candidates.len(), (EdgeGrad::default(), BackwardStats::default()));
@@ -456,7 +455,7 @@ pub fn edge_grad(
                 if let Some(g) = geometry(candidate) {
                     // The rank matters only to a segment's occluders: an edge with none skips it.
                     let rank =
-                        if pieces.is_empty() { u32::MAX } else { coincident_rank(screen, topology, candidate.0) };
+                        if pieces.is_empty() { u32::MAX } else { coincident_rank(orientation, topology, candidate.0) };
                     *result = accumulate((bins, cell_lists, cells_x), g, rank, pieces, scratch);
                 }
             }

@@ -101,6 +101,7 @@ pub fn backward_view(
         state.grid,
         &state.screen,
         &state.boxes,
+        &state.orientation,
         topology,
         &state.candidates,
         d_image,

@@ -1,7 +1,7 @@
 //! Tests of [`edge_grad`](super::edge_grad) against the stage as first written.
 
 use super::*;
-use crate::cpu::bin;
+use crate::cpu::{bin, edges};
 
 /// The stage as first written: full bins, every listed triangle tested in f64, no early exit.
 #[allow(clippy::too_many_arguments)]
@@ -102,13 +102,14 @@ fn compare_with_reference(
     let mut slots = Vec::new();
     let boxes = bin::snapped_boxes(&snapped, topology.triangles());
     let mut scratch = EdgeGradScratch::default();
-    let stats = edge_grad(params, grid, screen, &boxes, topology, &candidates, d_image, &mut slots, &mut scratch);
+    let stats =
+        edge_grad(params, grid, screen, &boxes, &orientation, topology, &candidates, d_image, &mut slots, &mut scratch);
     let mut full = Bins::default();
     bin::bin(params, screen, &snapped, topology.triangles(), &mut full);
     let mut expected = BackwardStats::default();
     for (&(e, side), slot) in candidates.iter().zip(&slots) {
         let edge = topology.edges()[e as usize];
-        let rank = coincident_rank(screen, topology, e);
+        let rank = coincident_rank(&orientation, topology, e);
         let (grad, s) = reference_gradient(params, screen, topology.triangles(), &full, d_image, edge, side, rank);
         assert_eq!(grad, *slot, "{what} edge {e}");
         expected = expected + s;
