@@ -119,12 +119,35 @@ const SEARCH_ORDER: [wgpu::Backends; 2] = [wgpu::Backends::all().difference(wgpu
 /// once on every driver.
 static GL_SEARCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
+/// The instances made so far, by the backends and flags they were made with, kept for the
+/// process's life (a `wgpu::Instance` is a shared handle: a clone is the same instance).
+///
+/// Why: when the last instance of a backend goes, its driver may be unloaded, and the next
+/// context loads it again. On an NVIDIA H100 with driver 580 that cycle broke the process: after
+/// about thirty contexts had come and gone in one test process, Vulkan found no adapter at all,
+/// and a context dropped after one render crashed the process (a driver thread ran on at a code
+/// address no longer mapped). Each of those tests passed in a process of its own.
+static INSTANCES: std::sync::Mutex<Vec<(wgpu::Backends, wgpu::InstanceFlags, wgpu::Instance)>> =
+    std::sync::Mutex::new(Vec::new());
+
 /// An instance of those of `backends` that `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance
-/// variables) allow, or `None` when none is left.
+/// variables) allow, or `None` when none is left: the one made earlier for the same backends
+/// and flags when there is one ([`INSTANCES`]; its other options are those of the variables
+/// when it was made), else a new one, kept.
 fn instance_from_env(backends: wgpu::Backends) -> Option<wgpu::Instance> {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     descriptor.backends &= backends;
-    (!descriptor.backends.is_empty()).then(|| wgpu::Instance::new(descriptor))
+    if descriptor.backends.is_empty() {
+        return None;
+    }
+    let mut kept = INSTANCES.lock().unwrap_or_else(|e| e.into_inner());
+    let key = (descriptor.backends, descriptor.flags);
+    if let Some((_, _, instance)) = kept.iter().find(|(b, f, _)| (*b, *f) == key) {
+        return Some(instance.clone());
+    }
+    let instance = wgpu::Instance::new(descriptor);
+    kept.push((key.0, key.1, instance.clone()));
+    Some(instance)
 }
 
 /// The adapters of `backends` (allowed by `WGPU_BACKEND`), with the GL search serialised.
