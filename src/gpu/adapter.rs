@@ -275,6 +275,19 @@ pub(crate) fn check_software_size(
 mod tests {
     use super::*;
 
+    /// A second instance of the same backends is the first one again: no new instance is made.
+    #[test]
+    fn instances_are_made_once_per_backends() {
+        let backends =
+            wgpu::InstanceDescriptor::new_without_display_handle_from_env().backends & wgpu::Backends::VULKAN;
+        // Counted by backends: other tests may make instances of other backends meanwhile.
+        let kept = || INSTANCES.lock().unwrap_or_else(|e| e.into_inner()).iter().filter(|k| k.0 == backends).count();
+        for _ in 0..3 {
+            assert_eq!(instance_from_env(wgpu::Backends::VULKAN).is_some(), !backends.is_empty());
+            assert_eq!(kept(), usize::from(!backends.is_empty()));
+        }
+    }
+
     #[test]
     fn adapter_choice_from_strings() {
         assert_eq!(parse_adapter_choice(""), AdapterChoice::Best);
