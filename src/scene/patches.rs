@@ -25,8 +25,9 @@ impl FacePatches {
     /// Groups the faces of `topology`: seeds in increasing face order (the lowest face not yet
     /// in a patch), each patch grown breadth-first over faces that share a vertex with a face
     /// of it (through the vertex's edges), visited in edge and face order, until it holds
-    /// [`FacePatches::SIZE`] faces or its connected piece is used up. Deterministic; a face with
-    /// no edge (all three indices equal) is a patch of its own.
+    /// [`FacePatches::SIZE`] faces or its connected piece is used up. Deterministic. A face with
+    /// no edge (all three indices equal) is reached from no other face; it joins a patch only as
+    /// its seed.
     pub fn new(topology: &Topology) -> FacePatches {
         let triangles = topology.triangles();
         let mut assigned = vec![false; triangles.len()];
