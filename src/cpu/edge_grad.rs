@@ -379,8 +379,10 @@ pub struct EdgeGradScratch {
 /// triangles are).
 ///
 /// Reads screen vertices, the triangles, their snapped boxes (as the `coverage` pass writes
-/// them, [`bin::snapped_boxes`]) and orientations ([`face_orientations`](super::edges::face_orientations)), the candidates
-/// `(edge, side)` of the `edges` stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into `slots` (same order).
+/// them, [`bin::snapped_boxes`]) and orientations (one per triangle, as
+/// [`face_orientations`](super::edges::face_orientations) writes them), the candidates
+/// `(edge, side)` of the `edges` stage and `∂L/∂I`; writes one [`EdgeGrad`] per candidate into
+/// `slots` (same order).
 /// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
 /// segment is in the list of one of the segment's cells, and a triangle found twice or one that
 /// is no occluder adds nothing. `scratch` holds the buffers of the walk, the lists and the scans
