@@ -71,8 +71,8 @@ impl BackFaceSkip {
 mod tests {
     use super::*;
     use crate::cpu::coverage::triangle::area2;
-    use crate::cpu::coverage::{draw_triangles, xorshift, SnappedTriangle};
-    use crate::mirror::{RasterParams, ScreenVertex};
+    use crate::cpu::coverage::{damage, draw_triangles, folded_placement, xorshift, SnappedTriangle};
+    use crate::mirror::RasterParams;
 
     /// `χ(a → b, p)` of [`BackFaceSkip`]: the half-open crossing count of a ray from `p` towards +x.
     fn crossing(a: [i64; 2], b: [i64; 2], p: [i64; 2]) -> i64 {
@@ -124,33 +124,13 @@ mod tests {
         let mut skipped_some = false;
         for case in 0..120 {
             let mut triangles = closed.clone();
-            match case % 4 {
-                0 => {}
-                1 => triangles.retain(|_| rand() > 0.05), // holes
-                2 => triangles.iter_mut().filter(|_| rand() < 0.03).for_each(|t| t.swap(1, 2)), // flipped faces
-                _ => triangles.truncate(triangles.len() / 2), // a hemisphere-like patch
-            }
+            damage(&mut triangles, case % 4, &mut rand);
             let f = [1, 3, 4, 5][case % 4];
             let (w, h) = (23 + case as u32 % 9, 17 + case as u32 % 5);
             let mut params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
             params.set_tile_size(4);
             let topology = Topology::new(sphere.positions().len(), triangles.clone()).unwrap();
-            // A random linear map of the sphere (a projection, possibly folded) plus noise,
-            // rounded to a grid of 1/(2F) pixel so samples land on edges and vertices.
-            let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand(), rand()];
-            let grid = 2.0 * f as f64;
-            let screen: Vec<ScreenVertex> = sphere
-                .positions()
-                .iter()
-                .map(|p| {
-                    let (x, y) = (p.x as f64, p.y as f64 + m[5] * p.z as f64);
-                    let noise = if case % 3 == 0 { 0.0 } else { 0.6 };
-                    let sx = w as f64 * (0.5 + 0.45 * (m[0] * x + m[1] * y)) + noise * (rand() - 0.5);
-                    let sy = h as f64 * (0.5 + 0.45 * (m[2] * x + m[3] * y)) + noise * (rand() - 0.5);
-                    let q = |c: f64| ((c * grid).round() / grid) as f32;
-                    ScreenVertex { position: [q(sx), q(sy)], valid: 1, pad: 0 }
-                })
-                .collect();
+            let screen = folded_placement(sphere.positions(), (w, h, f), 0.45, case % 3 == 0, &mut rand);
             let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
             let skip = BackFaceSkip::new(&topology, &snapped).unwrap();
             assert_eq!(skip.boxes.is_empty(), case % 4 == 0, "case {case}");

@@ -80,3 +80,42 @@ fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
         (seed >> 11) as f64 / (1u64 << 53) as f64
     }
 }
+
+/// The tests' damaged closed meshes: `kind` 0 keeps `triangles`, 1 punches holes (drops about
+/// 5% of the faces), 2 flips about 3% of them, 3 keeps the first half (an open patch).
+#[cfg(test)]
+fn damage(triangles: &mut Vec<[u32; 3]>, kind: usize, rand: &mut impl FnMut() -> f64) {
+    match kind {
+        0 => {}
+        1 => triangles.retain(|_| rand() > 0.05),
+        2 => triangles.iter_mut().filter(|_| rand() < 0.03).for_each(|t| t.swap(1, 2)),
+        _ => triangles.truncate(triangles.len() / 2),
+    }
+}
+
+/// The tests' placements of a mesh on a `w × h` image at `F = f`: a random linear map of
+/// `positions` (a projection, possibly folded; `scale` times the image size), plus up to ±0.3
+/// pixel of noise unless `exact`, rounded to a grid of 1/(2F) pixel so that samples land on
+/// edges and vertices.
+#[cfg(test)]
+fn folded_placement(
+    positions: &[glam::Vec3],
+    (w, h, f): (u32, u32, u32),
+    scale: f64,
+    exact: bool,
+    rand: &mut impl FnMut() -> f64,
+) -> Vec<crate::mirror::ScreenVertex> {
+    let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand(), rand()];
+    let grid = 2.0 * f as f64;
+    let noise = if exact { 0.0 } else { 0.6 };
+    positions
+        .iter()
+        .map(|p| {
+            let (x, y) = (p.x as f64, p.y as f64 + m[5] * p.z as f64);
+            let sx = w as f64 * (0.5 + scale * (m[0] * x + m[1] * y)) + noise * (rand() - 0.5);
+            let sy = h as f64 * (0.5 + scale * (m[2] * x + m[3] * y)) + noise * (rand() - 0.5);
+            let q = |c: f64| ((c * grid).round() / grid) as f32;
+            crate::mirror::ScreenVertex { position: [q(sx), q(sy)], valid: 1, pad: 0 }
+        })
+        .collect()
+}

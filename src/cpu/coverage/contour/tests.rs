@@ -1,7 +1,7 @@
 //! The contour fill against drawing every triangle, and the face signs against i64 areas.
 
 use super::*;
-use crate::cpu::coverage::{draw_triangles, xorshift, BackFaceSkip};
+use crate::cpu::coverage::{damage, draw_triangles, folded_placement, xorshift, BackFaceSkip};
 use crate::mirror::{ScreenVertex, COORD_LIMIT, INVALID_SNAPPED_VERTEX};
 
 /// The masks, boxes and summary of [`coverage`] and of drawing the triangles.
@@ -102,38 +102,25 @@ fn contour_fill_matches_drawing_on_meshes() {
     let mut covered_some = false;
     for case in 0..160 {
         let mut triangles = closed.clone();
-        match case % 5 {
-            0 => {}
-            1 => triangles.retain(|_| rand() > 0.05),
-            2 => triangles.iter_mut().filter(|_| rand() < 0.03).for_each(|t| t.swap(1, 2)),
-            3 => triangles.truncate(triangles.len() / 2),
-            _ => {
-                // Non-manifold: some faces repeated, some repeated flipped, some degenerate.
-                let extra: Vec<[u32; 3]> = triangles.iter().filter(|_| rand() < 0.05).copied().collect();
-                triangles.extend(extra.iter().map(|t| [t[0], t[2], t[1]]));
-                triangles.extend(extra.iter().take(20));
-                triangles.extend(extra.iter().take(10).map(|t| [t[0], t[0], t[1]]));
-            }
+        if case % 5 == 4 {
+            // Non-manifold: some faces repeated, some repeated flipped, some degenerate.
+            let extra: Vec<[u32; 3]> = triangles.iter().filter(|_| rand() < 0.05).copied().collect();
+            triangles.extend(extra.iter().map(|t| [t[0], t[2], t[1]]));
+            triangles.extend(extra.iter().take(20));
+            triangles.extend(extra.iter().take(10).map(|t| [t[0], t[0], t[1]]));
+        } else {
+            damage(&mut triangles, case % 5, &mut rand);
         }
         let f = [1, 2, 3, 4, 5, 6][case % 6];
         let (w, h) = (23 + case as u32 % 9, 17 + case as u32 % 5);
         let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
         let topology = Topology::new(sphere.positions().len(), triangles).unwrap();
-        let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand(), rand()];
-        let grid = 2.0 * f as f64;
         let scale = [0.45, 0.45, 0.2, 1.5][case % 4];
-        let mut snapped: Vec<[i32; 2]> = sphere
-            .positions()
-            .iter()
-            .map(|p| {
-                let (x, y) = (p.x as f64, p.y as f64 + m[5] * p.z as f64);
-                let noise = if case % 3 == 0 { 0.0 } else { 0.6 };
-                let sx = w as f64 * (0.5 + scale * (m[0] * x + m[1] * y)) + noise * (rand() - 0.5);
-                let sy = h as f64 * (0.5 + scale * (m[2] * x + m[3] * y)) + noise * (rand() - 0.5);
-                let q = |c: f64| ((c * grid).round() / grid) as f32;
-                params.snap_vertex(&ScreenVertex { position: [q(sx), q(sy)], valid: 1, pad: 0 })
-            })
-            .collect();
+        let mut snapped: Vec<[i32; 2]> =
+            folded_placement(sphere.positions(), (w, h, f), scale, case % 3 == 0, &mut rand)
+                .iter()
+                .map(|v| params.snap_vertex(v))
+                .collect();
         if case % 7 == 3 {
             // Clipped vertices: their faces are culled.
             for v in snapped.iter_mut().filter(|_| rand() < 0.02) {
