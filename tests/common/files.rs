@@ -1,13 +1,17 @@
 //! Temporary files for tests that read and write real files.
+//!
+//! They live under Cargo's scratch folder for integration tests (`target/tmp`, which
+//! `cargo clean` removes), one folder per call named after the test binary and a counter: a
+//! later run of the same binary empties and reuses the same names, so nothing piles up.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// A fresh, empty folder under the system temp dir, unique to this process and call.
+/// A fresh, empty folder, unique to this test binary and call.
 pub fn temp_dir() -> PathBuf {
     static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("diffsil-test-{}-{n}", std::process::id()));
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("{}-{n}", env!("CARGO_CRATE_NAME")));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
