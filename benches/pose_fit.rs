@@ -1,9 +1,13 @@
 //! One step of the pose fit (`fit::PoseFit::step`) on the built-in figure, the workload of the
 //! `fit_pose` example: skinning, forward + blurred loss + backward over 4 views at 64², F = 4, the
 //! self-intersection check (which runs beside the render), the skinning backward and an Adam
-//! step, on the CPU backend. Two of its parts are measured alone beside it: the renderer's
-//! forward + loss + backward of the 4 views (`Renderer::squared_error_step`, rest pose against
-//! the targets), and the self-intersection check.
+//! step, on the CPU backend. The step is measured twice: with the check at every step
+//! (`PoseFit`'s default), and with a check every
+//! [`FitOptions::INTERSECTION_INTERVAL`]-th step, the steps between reusing its gradient, as the
+//! library's fit (`fit::fit`, and so the example) runs it. Two of its parts are measured alone
+//! beside it: the renderer's forward + loss + backward of the 4 views
+//! (`Renderer::squared_error_step`, rest pose against the targets), and the self-intersection
+//! check.
 //!
 //! The targets are the silhouettes of the random pose of seed 1; the fit starts at the rest pose
 //! and keeps stepping through criterion's iterations, so the figures are those of a fit under way.
@@ -12,7 +16,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{framing_cameras, random_pose, FitSettings, PoseFit};
+use diffsil::pose::fit::{framing_cameras, random_pose, FitOptions, FitSettings, PoseFit};
 use diffsil::pose::self_intersection::SelfIntersectionChecker;
 use diffsil::{Mesh, RenderSettings, Renderer, Targets};
 
@@ -31,13 +35,16 @@ fn pose_fit(c: &mut Criterion) {
     let mut views = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
     let view_targets = Targets::new(targets.clone()).expect("valid targets");
     let view_cameras = cameras.clone();
-    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, FitSettings::default()).expect("valid fit");
-    fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
+    let [mut fit, mut fit_as_library] =
+        [1, FitOptions::INTERSECTION_INTERVAL].map(|interval| new_fit(&model, &cameras, &targets, interval));
 
     let mut group = c.benchmark_group("pose_fit/builtin figure");
     group.sample_size(20).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
     group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
         b.iter(|| fit.step().expect("the step runs"))
+    });
+    group.bench_function(format!("step, checked as fit::fit ({VIEWS} views at {RESOLUTION}²)"), |b| {
+        b.iter(|| fit_as_library.step().expect("the step runs"))
     });
     group.bench_function(format!("render + loss + backward ({VIEWS} views at {RESOLUTION}²)"), |b| {
         b.iter(|| views.squared_error_step(&model.mesh, &view_cameras, &view_targets).expect("the step runs").loss)
@@ -73,15 +80,34 @@ fn body_fit(c: &mut Criterion) {
         .images()
         .to_vec();
     let parts = Parts::new(&model, &truth, &cameras, &targets);
-    let mut fit = PoseFit::new(model, cameras, targets, renderer, FitSettings::default()).expect("valid fit");
-    fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
+    let [mut fit, mut fit_as_library] =
+        [1, FitOptions::INTERSECTION_INTERVAL].map(|interval| new_fit(&model, &cameras, &targets, interval));
     let mut group = c.benchmark_group("pose_fit/makehuman-body-7k");
     group.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_millis(500));
     group.bench_function(format!("step ({VIEWS} views at {RESOLUTION}²)"), |b| {
         b.iter(|| fit.step().expect("the step runs"))
     });
+    group.bench_function(format!("step, checked as fit::fit ({VIEWS} views at {RESOLUTION}²)"), |b| {
+        b.iter(|| fit_as_library.step().expect("the step runs"))
+    });
     parts.bench(&mut group);
     group.finish();
+}
+
+/// A fit of `model` from its rest pose to `targets`, with the pose prior of the library's fit and
+/// a self-intersection check every `interval`-th step.
+fn new_fit(
+    model: &diffsil::pose::skin::SkinnedMesh,
+    cameras: &[diffsil::Camera],
+    targets: &[diffsil::Image],
+    interval: u32,
+) -> PoseFit {
+    let renderer = Renderer::new(RenderSettings::default()).expect("the CPU backend opens");
+    let mut fit = PoseFit::new(model.clone(), cameras.to_vec(), targets.to_vec(), renderer, FitSettings::default())
+        .expect("valid fit");
+    fit.set_pose_prior(PoseFit::POSE_PRIOR).expect("valid prior");
+    fit.set_intersection_interval(interval).expect("a valid interval");
+    fit
 }
 
 /// The parts of one step of the MakeHuman body's fit, each alone, at a pose between the rest
