@@ -29,9 +29,10 @@ mod evaluate;
 mod masks;
 mod sheet;
 mod user_data;
+mod user_fit;
 
 use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Parser;
@@ -50,6 +51,8 @@ mod common;
 use common::{finite, BackendName};
 use evaluate::{ablation, evaluate, motion_frames};
 use masks::MaskNoise;
+pub use user_fit::fit_user_data;
+use user_fit::save_fit;
 
 /// The ring the cameras sit on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -442,84 +445,6 @@ fn fit_seed(
     }
     let backend = fit.renderer().backend_name();
     Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop, swap })
-}
-
-/// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
-/// (`fitted_pose.json`) to `out`.
-fn save_fit(model: &SkinnedMesh, fit: &PoseFit, out: &Path) -> Result<(), Box<dyn std::error::Error>> {
-    let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
-    diffsil::io::gltf::save_mesh_glb(&posed, out.join("fitted.glb"))?;
-    diffsil::io::save_obj(out.join("fitted.obj"), &posed)?;
-    std::fs::write(out.join("fitted_pose.json"), fit.pose().to_json(fit.shape()))?;
-    println!("wrote fitted.glb, fitted.obj and fitted_pose.json to {}", out.display());
-    Ok(())
-}
-
-/// What a fit to the user's masks measured: per view, the silhouette IoU and energy
-/// ([`user_data::agreement`]) at the start (rest pose) and at the end.
-pub struct DataOutcome {
-    /// Per view (IoU, E_sl) of the rest pose.
-    pub before: Vec<(f64, f64)>,
-    /// Per view (IoU, E_sl) of the fitted pose.
-    pub after: Vec<(f64, f64)>,
-    /// The fit's final energy E (unblurred, all terms).
-    pub energy: f64,
-    /// Adam steps taken.
-    pub steps: u32,
-    /// Wall-clock seconds of the fit.
-    pub seconds: f64,
-}
-
-/// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
-/// `--save`, the fitted mesh and pose to `--out`.
-pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Box<dyn std::error::Error>> {
-    let path = o.cameras.as_ref().ok_or("--targets needs --cameras")?;
-    let cameras = user_data::load_cameras(path)?;
-    let targets = user_data::load_targets(&o.targets, &cameras, o.threshold)?;
-    if o.shape && model.shape_count() == 0 {
-        return Err("--shape needs a model with morph targets".into());
-    }
-    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
-    let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
-    let before = renderer.render(&rest_mesh, &cameras)?.images().to_vec();
-    let options = fit_options(o);
-    let (schedule, hypotheses) = options.plan(model)?;
-    let total = schedule.total_steps(hypotheses.len());
-    let bar = indicatif::ProgressBar::new(total as u64);
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
-    let start = Instant::now();
-    let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |_, progress| {
-        bar.set_message(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette));
-        bar.inc(1);
-        within_time_limit(o.time_limit, start)
-    })?;
-    let seconds = start.elapsed().as_secs_f64();
-    bar.finish();
-    let (mut fit, run) = (fitted.fit, fitted.report);
-    let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
-    println!("stopped: {:?} after {} steps", run.stop, run.steps);
-    println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
-    let after = fit.render()?;
-    std::fs::create_dir_all(&o.out)?;
-    let mut outcome =
-        DataOutcome { before: Vec::new(), after: Vec::new(), energy: run.energy, steps: run.steps, seconds };
-    for (view, target) in targets.iter().enumerate() {
-        sheet::comparison_sheet(target, &before[view], &after[view]).save(o.out.join(format!("view{view}.png")))?;
-        outcome.before.push(user_data::agreement(&before[view], target));
-        outcome.after.push(user_data::agreement(&after[view], target));
-        let ((iou0, e0), (iou1, e1)) = (outcome.before[view], outcome.after[view]);
-        println!("view {view} ({}): IoU {iou0:.3} -> {iou1:.3}, E_sl {e0:.2e} -> {e1:.2e}", o.targets[view].display());
-    }
-    println!(
-        "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
-        targets.len(),
-        o.out.display()
-    );
-    if o.save {
-        save_fit(model, &fit, &o.out)?;
-    }
-    Ok(outcome)
 }
 
 /// Runs the command line; a failure is reported on stderr with exit status 1.
