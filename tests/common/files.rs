@@ -2,7 +2,9 @@
 //!
 //! They live under Cargo's scratch folder for integration tests (`target/tmp`, which
 //! `cargo clean` removes), one folder per call named after the test binary and a counter: a
-//! later run of the same binary empties and reuses the same names, so nothing piles up.
+//! later run of the same binary empties and reuses the same names, so nothing piles up. (Two runs
+//! of the same test binary at the same time would share them; Cargo runs a crate's test binaries
+//! one after the other.)
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
