@@ -428,17 +428,7 @@ fn fit_seed(
     let height_m = f64::from((hi - lo).max_element());
 
     if let Some(before) = before {
-        let after = fit.render()?;
-        std::fs::create_dir_all(&o.out)?;
-        for (view, target) in targets.iter().enumerate() {
-            let path = o.out.join(format!("view{view}.png"));
-            sheet::comparison_sheet(target, &before[view], &after[view]).save(&path)?;
-        }
-        println!(
-            "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
-            targets.len(),
-            o.out.display()
-        );
+        sheet::save_comparison_sheets(&o.out, &targets, &before, &fit.render()?)?;
         if o.save {
             save_fit(model, &fit, &o.out)?;
         }

@@ -1,6 +1,28 @@
 //! The before/after pictures of a fit.
 
+use std::path::Path;
+
 use diffsil::Image;
+
+/// Writes one [`comparison_sheet`] per view to `out` (`view0.png`, `view1.png`, …), creating the
+/// folder, and says so.
+pub fn save_comparison_sheets(
+    out: &Path,
+    targets: &[Image],
+    before: &[Image],
+    after: &[Image],
+) -> Result<(), Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(out)?;
+    for (view, target) in targets.iter().enumerate() {
+        comparison_sheet(target, &before[view], &after[view]).save(out.join(format!("view{view}.png")))?;
+    }
+    println!(
+        "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
+        targets.len(),
+        out.display()
+    );
+    Ok(())
+}
 
 /// A picture a person can read: rows before/after, columns target | fitted | difference
 /// (red: target only, cyan: fitted only, white: both), each pixel drawn 4×4.

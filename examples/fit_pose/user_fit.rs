@@ -68,21 +68,15 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     println!("stopped: {:?} after {} steps", run.stop, run.steps);
     println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     let after = fit.render()?;
-    std::fs::create_dir_all(&o.out)?;
     let mut outcome =
         DataOutcome { before: Vec::new(), after: Vec::new(), energy: run.energy, steps: run.steps, seconds };
     for (view, target) in targets.iter().enumerate() {
-        sheet::comparison_sheet(target, &before[view], &after[view]).save(o.out.join(format!("view{view}.png")))?;
         outcome.before.push(user_data::agreement(&before[view], target));
         outcome.after.push(user_data::agreement(&after[view], target));
         let ((iou0, e0), (iou1, e1)) = (outcome.before[view], outcome.after[view]);
         println!("view {view} ({}): IoU {iou0:.3} -> {iou1:.3}, E_sl {e0:.2e} -> {e1:.2e}", o.targets[view].display());
     }
-    println!(
-        "wrote {} pictures to {} (rows: before, after; columns: target, fitted, difference)",
-        targets.len(),
-        o.out.display()
-    );
+    sheet::save_comparison_sheets(&o.out, &targets, &before, &after)?;
     if o.save {
         save_fit(model, &fit, &o.out)?;
     }
