@@ -87,7 +87,7 @@ pub struct FitOptions {
     /// as before; but the fits of exact masks end elsewhere within their spread, and on the
     /// built-in figure two of seeds 31–80 no longer recover from the jump of the first
     /// unblurred step ([`Stage::warmup`]) and end 6 to 10 mm worse (p90 6.9 → 12.1 mm; the
-    /// README's evaluation has the table), so the default keeps the outline.
+    /// table is in `docs/pose-fit-evaluation.md`), so the default keeps the outline.
     pub outline_settle: f32,
     /// Steps over which the unblurred stage that follows the blurred ones ramps up the learning
     /// rate ([`Stage::warmup`], which says why; 0: none; a fit without blur has no ramp).
@@ -97,7 +97,7 @@ pub struct FitOptions {
     /// and take about 0.7 times the CPU time; the built-in figure's tails shrink (seeds 31–80:
     /// p90 6.9 → 6.5 mm, worst 26.5 → 20.2 mm; 81–130: p90 16.6 → 11.9 mm) but most medians
     /// grow, by up to 1.1 mm (CesiumMan's walk 4.0 → 5.0 mm, the MakeHuman body's seeds 1–30
-    /// 3.5 → 4.3 mm), so neither is the default yet (the README's evaluation has the table).
+    /// 3.5 → 4.3 mm), so neither is the default yet (the table is in `docs/pose-fit-evaluation.md`).
     pub warmup: u32,
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
     /// mirrored front to back (an arm near the body's plane also swung forward and back), the
