@@ -97,7 +97,8 @@ pub struct FitOptions {
     /// and take about 0.7 times the CPU time; the built-in figure's tails shrink (seeds 31–80:
     /// p90 6.9 → 6.5 mm, worst 26.5 → 20.2 mm; 81–130: p90 16.6 → 11.9 mm) but most medians
     /// grow, by up to 1.1 mm (CesiumMan's walk 4.0 → 5.0 mm, the MakeHuman body's seeds 1–30
-    /// 3.5 → 4.3 mm), so neither is the default yet (the table is in `docs/pose-fit-evaluation.md`).
+    /// 3.5 → 4.3 mm), so neither is the default yet (the table is in
+    /// `docs/pose-fit-evaluation.md`).
     pub warmup: u32,
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
     /// mirrored front to back (an arm near the body's plane also swung forward and back), the

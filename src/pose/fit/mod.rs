@@ -109,8 +109,8 @@
 //!    batch, so the screen changes a fit only where it leaves out the candidate the full test
 //!    would keep: over 386 fits of four models and four kinds of mask the screen of the three
 //!    lowest never did, and the lowest alone with the ratio ends the evaluation of
-//!    `docs/pose-fit-evaluation.md` (352 fits) as the three did. Two lowest alone, tried earlier with the energies
-//!    taken one by one, lost two swaps and saved nothing.
+//!    `docs/pose-fit-evaluation.md` (352 fits) as the three did. Two lowest alone, tried
+//!    earlier with the energies taken one by one, lost two swaps and saved nothing.
 //!
 //! 10. **A coarse proxy at the coarsest blur** ([`FitOptions::coarse_proxy`],
 //!     [`PoseFit::set_coarse_proxy`]): the starting poses and the first stage compare
@@ -124,9 +124,9 @@
 //!     are unchanged; the other vertices get no silhouette gradient in those steps. The
 //!     7,000-vertex MakeHuman body keeps 1,553 vertices and 3,203 of its 13,996 triangles, and
 //!     a fit takes about 0.85 times the time; the errors stay those of the whole mesh within the
-//!     spread between seeds (see `docs/pose-fit-evaluation.md`). The milder blur of the second stage renders the
-//!     whole mesh: with the proxy there too, the built-in figure's seeds 31–80 ended with a p90
-//!     of 15.4 mm instead of 6.9.
+//!     spread between seeds (see `docs/pose-fit-evaluation.md`). The milder blur of the second
+//!     stage renders the whole mesh: with the proxy there too, the built-in figure's seeds 31–80
+//!     ended with a p90 of 15.4 mm instead of 6.9.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long

@@ -79,11 +79,11 @@ impl Default for SwapScreen {
     /// body, built-in figure, RiggedFigure, CesiumMan's walk; clean, dilated, eroded and noisy
     /// masks), the candidate the full test kept ranked at most third as it was, or lay within
     /// 1.95 times the pose's energy; the three lowest with the ratio kept the same candidate in
-    /// every one of them. The lowest with the ratio then ended every row of the evaluation
-    /// in `docs/pose-fit-evaluation.md` (352 fits, held-out seeds included) with the same median, p90, worst case and
-    /// failures as the three lowest, and each of the 100 fits compared one by one with the same
-    /// error and kept swap: a candidate ranked second or third that wins lies within three times
-    /// the pose's energy.
+    /// every one of them. The lowest with the ratio then ended every row of the evaluation in
+    /// `docs/pose-fit-evaluation.md` (352 fits, held-out seeds included) with the same median,
+    /// p90, worst case and failures as the three lowest, and each of the 100 fits compared one by
+    /// one with the same error and kept swap: a candidate ranked second or third that wins lies
+    /// within three times the pose's energy.
     fn default() -> Self {
         SwapScreen { lowest: 1, within: 3.0 }
     }
