@@ -39,12 +39,12 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, LimbSwap, PoseFit, Schedule, Stop,
-    SwapScreen, RAISED_ELEVATION_DEG,
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, Fitted, LimbSwap, PoseFit, Progress,
+    Schedule, Stop, SwapScreen, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Mesh, RenderSettings, Renderer};
+use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -372,29 +372,21 @@ fn fit_seed(
         .collect();
     let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
 
-    let options = fit_options(o);
-    let (schedule, hypotheses) = options.plan(model)?;
-    let total = schedule.total_steps(hypotheses.len());
-    let bar = if quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(total as u64) };
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
-    let start = Instant::now();
-    let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |fit, progress| {
-        if !quiet && (progress.step % 10 == 0 || progress.step == total) {
+    let (fitted, seconds) =
+        fit_with_progress(model, o, (cameras, targets.clone(), renderer), quiet, |fit, progress, plan| {
+            if quiet || (progress.step % 10 != 0 && progress.step != plan.total) {
+                return None;
+            }
             let error = fit.vertices().map_or(f64::NAN, |v| per_vertex_error(&v, &truth_vertices) * 1000.0);
             let stage = match progress.hypothesis {
-                Some(k) => format!("start {}/{}", k + 1, hypotheses.len()),
+                Some(k) => format!("start {}/{}", k + 1, plan.hypotheses),
                 None => format!("blur {:.3}", progress.blur),
             };
-            bar.set_message(format!(
+            Some(format!(
                 "{stage}  E_sl {:.2e}  E_spt {:.4}  error {error:.1} mm",
                 progress.report.silhouette, progress.report.self_intersection
-            ));
-        }
-        bar.inc(1);
-        within_time_limit(o.time_limit, start)
-    })?;
-    let seconds = start.elapsed().as_secs_f64();
-    bar.finish();
+            ))
+        })?;
     let (mut fit, run) = (fitted.fit, fitted.report);
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
     if let (false, Some(report)) = (quiet, &fitted.swap) {
@@ -514,6 +506,40 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
         outcome.backend.replace(' ', "_")
     );
     Ok(())
+}
+
+/// The size of a fit's plan, for progress messages: its steps in all and its starting poses.
+struct Plan {
+    total: u32,
+    hypotheses: usize,
+}
+
+/// Runs the library's fit (`fit_options(o)`) of `model` to the targets seen by the cameras, with
+/// a progress bar over the plan's steps (hidden when `quiet`) whose message `describe` gives (or
+/// leaves as it was, `None`), stopping at `--time-limit`; returns the fit and its wall seconds.
+fn fit_with_progress(
+    model: &SkinnedMesh,
+    o: &Options,
+    (cameras, targets, renderer): (Vec<Camera>, Vec<Image>, Renderer),
+    quiet: bool,
+    mut describe: impl FnMut(&PoseFit, &Progress, &Plan) -> Option<String>,
+) -> diffsil::Result<(Fitted, f64)> {
+    let options = fit_options(o);
+    let (schedule, hypotheses) = options.plan(model)?;
+    let plan = Plan { total: schedule.total_steps(hypotheses.len()), hypotheses: hypotheses.len() };
+    let bar = if quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(plan.total as u64) };
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
+    let start = Instant::now();
+    let fitted = fit(model.clone(), cameras, targets, renderer, &options, |fit, progress| {
+        if let Some(message) = describe(fit, progress, &plan) {
+            bar.set_message(message);
+        }
+        bar.inc(1);
+        within_time_limit(o.time_limit, start)
+    })?;
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish();
+    Ok((fitted, seconds))
 }
 
 /// `--time-limit`: `Break` (cancel the fit) once more than `limit` seconds have passed since

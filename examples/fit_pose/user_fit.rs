@@ -3,13 +3,12 @@
 //! and the writer of a fit's result (`--save`).
 
 use std::path::Path;
-use std::time::Instant;
 
-use diffsil::pose::fit::{fit, PoseFit};
+use diffsil::pose::fit::PoseFit;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Mesh, RenderSettings, Renderer};
 
-use super::{fit_options, sheet, user_data, within_time_limit, Options};
+use super::{fit_with_progress, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -50,19 +49,10 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
     let before = renderer.render(&rest_mesh, &cameras)?.images().to_vec();
-    let options = fit_options(o);
-    let (schedule, hypotheses) = options.plan(model)?;
-    let total = schedule.total_steps(hypotheses.len());
-    let bar = indicatif::ProgressBar::new(total as u64);
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"));
-    let start = Instant::now();
-    let fitted = fit(model.clone(), cameras, targets.clone(), renderer, &options, |_, progress| {
-        bar.set_message(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette));
-        bar.inc(1);
-        within_time_limit(o.time_limit, start)
-    })?;
-    let seconds = start.elapsed().as_secs_f64();
-    bar.finish();
+    let (fitted, seconds) =
+        fit_with_progress(model, o, (cameras, targets.clone(), renderer), false, |_, progress, _| {
+            Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))
+        })?;
     let (mut fit, run) = (fitted.fit, fitted.report);
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     println!("stopped: {:?} after {} steps", run.stop, run.steps);
