@@ -4,13 +4,69 @@
 
 use std::borrow::Cow;
 use std::fmt;
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use super::adapter::{select_adapter, AdapterReport, GpuOptions};
 use crate::{Error, Result};
 
 /// Errors wgpu reported outside any error scope, collected instead of panicking.
 type ErrorLog = Arc<Mutex<Vec<String>>>;
+
+/// Held around the driver calls that NVIDIA's driver was seen to deadlock on when several
+/// threads made them at once: opening a device and compiling a pipeline.
+///
+/// Why: on an NVIDIA H100 (Vulkan, driver 580) the GPU tests on many threads hung (5 of 12 runs
+/// on sixteen threads); the backtraces of a hung run showed threads destroying devices
+/// (`vkDestroyDevice`), threads creating compute pipelines and a thread's exit all waiting on
+/// one lock inside the driver. Devices are no longer destroyed while the process runs
+/// ([`IDLE_DEVICES`]), which alone may be the fix (not settled: five runs without this lock
+/// passed); this lock keeps the remaining heavy driver calls apart. They run once per context
+/// (a dozen pipelines), never per frame.
+static DRIVER_CALLS: Mutex<()> = Mutex::new(());
+
+fn driver_calls() -> MutexGuard<'static, ()> {
+    DRIVER_CALLS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// What a device was opened on and with: a context asking for the same may take it over.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct DeviceKey {
+    adapter: wgpu::AdapterInfo,
+    features: wgpu::Features,
+}
+
+/// The device of a dropped [`GpuContext`], waiting for the next context on the same adapter.
+struct IdleDevice {
+    key: DeviceKey,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    errors: ErrorLog,
+    lost: Arc<AtomicBool>,
+}
+
+/// The devices of dropped contexts, kept for the process's life and handed to the next
+/// [`GpuContext::new`] on the same adapter with the same features, instead of being destroyed.
+///
+/// Why: destroying devices while other threads compile pipelines deadlocked NVIDIA's driver
+/// (see [`DRIVER_CALLS`]). There are never more of them than contexts were open at once; the
+/// resources a context made (buffers, pipelines) are freed when they are dropped, as before.
+/// A device that was lost is not kept.
+static IDLE_DEVICES: Mutex<Vec<IdleDevice>> = Mutex::new(Vec::new());
+
+/// How long a dropped context waits for its device's queue to finish before handing the device
+/// on; a device still busy after that is destroyed instead.
+const IDLE_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// The idle device opened with `key` that was dropped last, taken out of [`IDLE_DEVICES`], its
+/// error log emptied.
+fn take_idle_device(key: &DeviceKey) -> Option<IdleDevice> {
+    let mut idle = IDLE_DEVICES.lock().unwrap_or_else(|e| e.into_inner());
+    let index = idle.iter().rposition(|d| d.key == *key && !d.lost.load(Ordering::Acquire))?;
+    let device = idle.remove(index);
+    device.errors.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    Some(device)
+}
 
 /// A wgpu device and queue, with the helpers the GPU stages are built from.
 ///
@@ -25,6 +81,30 @@ pub struct GpuContext {
     pub(super) limits: wgpu::Limits,
     downlevel: wgpu::DownlevelCapabilities,
     errors: ErrorLog,
+    /// Set by the device-lost callback; a lost device is not kept for reuse.
+    lost: Arc<AtomicBool>,
+    key: DeviceKey,
+}
+
+impl Drop for GpuContext {
+    /// Hands the device on to the next context opened on the same adapter instead of destroying
+    /// it, once its queue is idle; unless it was lost or destroyed (the wait runs the
+    /// device-lost callback of a device that `destroy` was called on) or its work does not
+    /// finish within 10 s.
+    fn drop(&mut self) {
+        let wait = wgpu::PollType::Wait { submission_index: None, timeout: Some(IDLE_WAIT) };
+        if self.device.poll(wait).is_err() || self.lost.load(Ordering::Acquire) {
+            return;
+        }
+        let idle = IdleDevice {
+            key: self.key.clone(),
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            errors: Arc::clone(&self.errors),
+            lost: Arc::clone(&self.lost),
+        };
+        IDLE_DEVICES.lock().unwrap_or_else(|e| e.into_inner()).push(idle);
+    }
 }
 
 impl fmt::Debug for GpuContext {
@@ -42,12 +122,14 @@ impl GpuContext {
     /// No optional feature is requested, except `TIMESTAMP_QUERY` when [`GpuOptions::profile`] is
     /// set and the adapter has it. Returns [`Error::NoAdapter`] (listing the adapters
     /// that were seen) when nothing matches.
+    ///
+    /// Devices are not destroyed while the process runs: when a context is dropped its device
+    /// waits for the next context opened on the same adapter with the same features, which
+    /// takes it over (its limits are the same, computed from the adapter). So a process holds
+    /// at most as many devices as it had contexts open at once. (Destroying devices while other
+    /// threads compiled pipelines deadlocked NVIDIA's driver.)
     pub fn new(options: &GpuOptions) -> Result<GpuContext> {
-        pollster::block_on(Self::new_async(options))
-    }
-
-    async fn new_async(options: &GpuOptions) -> Result<GpuContext> {
-        let adapter = select_adapter(&options.adapter).await?;
+        let adapter = pollster::block_on(select_adapter(&options.adapter))?;
         let report = AdapterReport::from_info(&adapter.get_info());
 
         let available = adapter.limits();
@@ -61,22 +143,33 @@ impl GpuContext {
             .max_buffers_and_acceleration_structures_per_shader_stage
             .max(available.max_buffers_and_acceleration_structures_per_shader_stage);
 
+        let features = if options.profile {
+            adapter.features() & wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
+        let key = DeviceKey { adapter: adapter.get_info(), features };
+        let downlevel = adapter.get_downlevel_capabilities();
+        if let Some(idle) = take_idle_device(&key) {
+            let IdleDevice { key, device, queue, errors, lost } = idle;
+            let limits = device.limits();
+            return Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors, lost, key });
+        }
+
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("diffsil"),
-            required_features: if options.profile {
-                adapter.features() & wgpu::Features::TIMESTAMP_QUERY
-            } else {
-                wgpu::Features::empty()
-            },
+            required_features: features,
             required_limits: limits,
             ..Default::default()
         };
-        let (device, queue) = adapter
-            .request_device(&descriptor)
-            .await
-            .map_err(|e| Error::Gpu(format!("could not open a device on {report}: {e}")))?;
+        let (device, queue) = {
+            let _driver = driver_calls();
+            pollster::block_on(adapter.request_device(&descriptor))
+        }
+        .map_err(|e| Error::Gpu(format!("could not open a device on {report}: {e}")))?;
 
         let errors = ErrorLog::default();
+        let lost = Arc::new(AtomicBool::new(false));
         let log = Arc::clone(&errors);
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
             if let Ok(mut log) = log.lock() {
@@ -84,8 +177,10 @@ impl GpuContext {
             }
         }));
         let log = Arc::clone(&errors);
+        let lost_flag = Arc::clone(&lost);
         device.set_device_lost_callback(move |reason, message| {
-            // Dropping the device also "loses" it; that is not an error.
+            lost_flag.store(true, Ordering::Release);
+            // Destroying the device also "loses" it; that is not an error.
             if reason != wgpu::DeviceLostReason::Destroyed {
                 if let Ok(mut log) = log.lock() {
                     log.push(format!("device lost ({reason:?}): {message}"));
@@ -94,8 +189,7 @@ impl GpuContext {
         });
 
         let limits = device.limits();
-        let downlevel = adapter.get_downlevel_capabilities();
-        Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors })
+        Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors, lost, key })
     }
 
     /// The adapter this context runs on.
@@ -190,6 +284,7 @@ impl GpuContext {
 
     fn create_compute_pipeline(&self, label: &str, source: String, entry_point: &str) -> Result<wgpu::ComputePipeline> {
         self.scoped(&format!("compiling `{label}` entry point `{entry_point}`"), || {
+            let _driver = driver_calls();
             let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(Cow::Owned(source)),

@@ -165,3 +165,44 @@ fn hardware_gpu_check_agrees_with_best_choice() {
         Err(other) => panic!("{other}"),
     }
 }
+
+/// A dropped context's device is not destroyed: the next context on the same adapter takes it
+/// over (on one thread, the device dropped last), with no errors left from before.
+#[test]
+fn a_dropped_contexts_device_is_taken_over() {
+    let Some(probe) = gpu_or_skip("a_dropped_contexts_device_is_taken_over") else { return };
+    drop(probe);
+    // Other test threads may take the device between the drop and the next context: a few tries.
+    let taken_over = (0..10).any(|_| {
+        let first = GpuContext::new(&GpuOptions::from_env()).unwrap();
+        let device = first.device().clone();
+        // An error outside any scope, left in the log when the context is dropped.
+        let _ = first.device().create_buffer(&wgpu::BufferDescriptor {
+            label: Some("mappable storage: invalid"),
+            size: 16,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        drop(first);
+        let next = GpuContext::new(&GpuOptions::from_env()).unwrap();
+        next.check_errors().unwrap();
+        let b = next.storage_buffer_init("b", &[7u32]).unwrap();
+        assert_eq!(Readback::new("reused").read::<u32>(&next, &b, 1).unwrap(), [7]);
+        *next.device() == device
+    });
+    assert!(taken_over, "in ten tries no new context took over the device of the context dropped before it");
+}
+
+/// A context whose device was destroyed (lost) does not hand it on: the next context works.
+#[test]
+fn a_lost_device_is_not_taken_over() {
+    let Some(first) = gpu_or_skip("a_lost_device_is_not_taken_over") else { return };
+    let device = first.device().clone();
+    first.device().destroy();
+    drop(first);
+    let next = GpuContext::new(&GpuOptions::from_env()).unwrap();
+    assert!(*next.device() != device);
+    let b = next.storage_buffer_init("b", &[7u32]).unwrap();
+    assert_eq!(Readback::new("after a lost device").read::<u32>(&next, &b, 1).unwrap(), [7]);
+    next.check_errors().unwrap();
+}
