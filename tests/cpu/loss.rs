@@ -126,6 +126,17 @@ fn non_finite_inputs_are_errors() {
             other => panic!("expected InvalidSettings, got {other:?}"),
         }
     }
+    // Past the first few hundred values (the check runs in chunks): an infinity at row 21.
+    let good = Image::filled(32, 32, 0.5);
+    let mut data = vec![0.5; 32 * 32];
+    data[21 * 32 + 7] = f32::NEG_INFINITY;
+    let bad = img(32, 32, &data);
+    for r in [squared_error(&bad, &good), squared_error(&good, &bad)] {
+        match r {
+            Err(Error::InvalidSettings(msg)) => assert!(msg.contains("row 21, column 7"), "{msg}"),
+            other => panic!("expected InvalidSettings, got {other:?}"),
+        }
+    }
 }
 
 #[test]
