@@ -407,13 +407,8 @@ fn patch_pairs<D: TileDiv>(
             continue;
         }
         for &t in faces {
-            let start = pairs.len();
-            box_pairs(div, range, slots, &boxes[t as usize], t, pairs);
-            if pairs.len() > start && orientation[t as usize] > 0 {
-                for pair in &mut pairs[start..] {
-                    pair.1 |= POSITIVE;
-                }
-            }
+            let tagged = t | if orientation[t as usize] > 0 { POSITIVE } else { 0 };
+            box_pairs(div, range, slots, &boxes[t as usize], tagged, pairs);
         }
     }
 }
