@@ -9,8 +9,9 @@
 //!
 //! This module holds the plumbing the stages share, one concern per file:
 //! - `adapter.rs`: adapter selection ([`GpuOptions`], [`AdapterChoice`], `DIFFSIL_ADAPTER`,
-//!   `WGPU_BACKEND`) and [`AdapterReport`]; `context.rs`: [`GpuContext`], the device, error
-//!   scopes, pipelines, submission and 1D dispatches; `alloc.rs`: buffer creation;
+//!   `WGPU_BACKEND`) and [`AdapterReport`]; `context.rs`: [`GpuContext`], the device (kept for
+//!   the next context when its context is dropped, not destroyed), error scopes, pipelines,
+//!   submission and 1D dispatches; `alloc.rs`: buffer creation;
 //!   `readback.rs`: [`Readback`] and staging reads.
 //! - The shaders: every file under `shaders/` is validated by naga when the crate is built and
 //!   embedded in it ([`SHADERS`]); `//!include` directives are resolved by [`shader`], the same
