@@ -36,8 +36,9 @@ struct DeviceKey {
     features: wgpu::Features,
 }
 
-/// The device of a dropped [`GpuContext`], waiting for the next context on the same adapter.
-struct IdleDevice {
+/// A device with its error log and its lost flag: newly opened, or that of a dropped
+/// [`GpuContext`] waiting in [`IDLE_DEVICES`] for the next context on the same adapter.
+struct OpenedDevice {
     key: DeviceKey,
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -52,7 +53,7 @@ struct IdleDevice {
 /// (see [`DRIVER_CALLS`]). There are never more of them than contexts were open at once; the
 /// resources a context made (buffers, pipelines) are freed when they are dropped, as before.
 /// A device that was lost is not kept.
-static IDLE_DEVICES: Mutex<Vec<IdleDevice>> = Mutex::new(Vec::new());
+static IDLE_DEVICES: Mutex<Vec<OpenedDevice>> = Mutex::new(Vec::new());
 
 /// How long a dropped context waits for its device's queue to finish before handing the device
 /// on; a device still busy after that is destroyed instead.
@@ -60,12 +61,60 @@ const IDLE_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// The idle device opened with `key` that was dropped last, taken out of [`IDLE_DEVICES`], its
 /// error log emptied.
-fn take_idle_device(key: &DeviceKey) -> Option<IdleDevice> {
+fn take_idle_device(key: &DeviceKey) -> Option<OpenedDevice> {
     let mut idle = IDLE_DEVICES.lock().unwrap_or_else(|e| e.into_inner());
     let index = idle.iter().rposition(|d| d.key == *key && !d.lost.load(Ordering::Acquire))?;
     let device = idle.remove(index);
     device.errors.lock().unwrap_or_else(|e| e.into_inner()).clear();
     Some(device)
+}
+
+/// Opens a new device on `adapter` with `key`'s features and the limits [`GpuContext::new`]
+/// describes, its uncaptured errors collected in its log and its loss flagged.
+fn open_device(adapter: &wgpu::Adapter, report: &AdapterReport, key: DeviceKey) -> Result<OpenedDevice> {
+    let available = adapter.limits();
+    let mut limits = wgpu::Limits::default().or_worse_values_from(&available);
+    limits.max_storage_buffer_binding_size =
+        limits.max_storage_buffer_binding_size.max(available.max_storage_buffer_binding_size);
+    limits.max_buffer_size = limits.max_buffer_size.max(available.max_buffer_size);
+    limits.max_storage_buffers_per_shader_stage =
+        limits.max_storage_buffers_per_shader_stage.max(available.max_storage_buffers_per_shader_stage);
+    limits.max_buffers_and_acceleration_structures_per_shader_stage = limits
+        .max_buffers_and_acceleration_structures_per_shader_stage
+        .max(available.max_buffers_and_acceleration_structures_per_shader_stage);
+
+    let descriptor = wgpu::DeviceDescriptor {
+        label: Some("diffsil"),
+        required_features: key.features,
+        required_limits: limits,
+        ..Default::default()
+    };
+    let (device, queue) = {
+        let _driver = driver_calls();
+        pollster::block_on(adapter.request_device(&descriptor))
+    }
+    .map_err(|e| Error::Gpu(format!("could not open a device on {report}: {e}")))?;
+
+    let errors = ErrorLog::default();
+    let lost = Arc::new(AtomicBool::new(false));
+    let log = Arc::clone(&errors);
+    device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+        if let Ok(mut log) = log.lock() {
+            log.push(error.to_string());
+        }
+    }));
+    let log = Arc::clone(&errors);
+    let lost_flag = Arc::clone(&lost);
+    device.set_device_lost_callback(move |reason, message| {
+        lost_flag.store(true, Ordering::Release);
+        // Destroying the device also "loses" it; that is not an error.
+        if reason != wgpu::DeviceLostReason::Destroyed {
+            if let Ok(mut log) = log.lock() {
+                log.push(format!("device lost ({reason:?}): {message}"));
+            }
+        }
+    });
+    Ok(OpenedDevice { key, device, queue, errors, lost })
 }
 
 /// A wgpu device and queue, with the helpers the GPU stages are built from.
@@ -96,7 +145,7 @@ impl Drop for GpuContext {
         if self.device.poll(wait).is_err() || self.lost.load(Ordering::Acquire) {
             return;
         }
-        let idle = IdleDevice {
+        let idle = OpenedDevice {
             key: self.key.clone(),
             device: self.device.clone(),
             queue: self.queue.clone(),
@@ -131,64 +180,19 @@ impl GpuContext {
     pub fn new(options: &GpuOptions) -> Result<GpuContext> {
         let adapter = pollster::block_on(select_adapter(&options.adapter))?;
         let report = AdapterReport::from_info(&adapter.get_info());
-
-        let available = adapter.limits();
-        let mut limits = wgpu::Limits::default().or_worse_values_from(&available);
-        limits.max_storage_buffer_binding_size =
-            limits.max_storage_buffer_binding_size.max(available.max_storage_buffer_binding_size);
-        limits.max_buffer_size = limits.max_buffer_size.max(available.max_buffer_size);
-        limits.max_storage_buffers_per_shader_stage =
-            limits.max_storage_buffers_per_shader_stage.max(available.max_storage_buffers_per_shader_stage);
-        limits.max_buffers_and_acceleration_structures_per_shader_stage = limits
-            .max_buffers_and_acceleration_structures_per_shader_stage
-            .max(available.max_buffers_and_acceleration_structures_per_shader_stage);
-
         let features = if options.profile {
             adapter.features() & wgpu::Features::TIMESTAMP_QUERY
         } else {
             wgpu::Features::empty()
         };
         let key = DeviceKey { adapter: adapter.get_info(), features };
-        let downlevel = adapter.get_downlevel_capabilities();
-        if let Some(idle) = take_idle_device(&key) {
-            let IdleDevice { key, device, queue, errors, lost } = idle;
-            let limits = device.limits();
-            return Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors, lost, key });
-        }
-
-        let descriptor = wgpu::DeviceDescriptor {
-            label: Some("diffsil"),
-            required_features: features,
-            required_limits: limits,
-            ..Default::default()
+        let opened = match take_idle_device(&key) {
+            Some(idle) => idle,
+            None => open_device(&adapter, &report, key)?,
         };
-        let (device, queue) = {
-            let _driver = driver_calls();
-            pollster::block_on(adapter.request_device(&descriptor))
-        }
-        .map_err(|e| Error::Gpu(format!("could not open a device on {report}: {e}")))?;
-
-        let errors = ErrorLog::default();
-        let lost = Arc::new(AtomicBool::new(false));
-        let log = Arc::clone(&errors);
-        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
-            if let Ok(mut log) = log.lock() {
-                log.push(error.to_string());
-            }
-        }));
-        let log = Arc::clone(&errors);
-        let lost_flag = Arc::clone(&lost);
-        device.set_device_lost_callback(move |reason, message| {
-            lost_flag.store(true, Ordering::Release);
-            // Destroying the device also "loses" it; that is not an error.
-            if reason != wgpu::DeviceLostReason::Destroyed {
-                if let Ok(mut log) = log.lock() {
-                    log.push(format!("device lost ({reason:?}): {message}"));
-                }
-            }
-        });
-
+        let OpenedDevice { key, device, queue, errors, lost } = opened;
         let limits = device.limits();
+        let downlevel = adapter.get_downlevel_capabilities();
         Ok(GpuContext { device, queue, adapter: report, limits, downlevel, errors, lost, key })
     }
 
