@@ -143,6 +143,11 @@ pub struct Options {
     /// pose's [default: SwapScreen::default, 3]
     #[arg(long, value_name = "X", value_parser = finite)]
     swap_within: Option<f32>,
+    /// A second run from the legs moved onto each other's places when that pose matches the
+    /// masks at most X times worse than the fitted pose where their renders differ; the lower of
+    /// the two runs is kept; 0: never [default: FitOptions::CROSSED_LEGS_WITHIN, 5]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    crossed_legs: Option<f32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -291,6 +296,7 @@ fn fit_options(o: &Options) -> FitOptions {
             convergence: None,
             fit_global: !o.no_global,
             swap_steps: 0,
+            crossed_legs_within: 0.0,
             ..defaults
         };
     }
@@ -318,6 +324,7 @@ fn fit_options(o: &Options) -> FitOptions {
             lowest: o.swap_refined.unwrap_or(defaults.swap_screen.lowest),
             within: o.swap_within.map_or(defaults.swap_screen.within, f64::from),
         },
+        crossed_legs_within: o.crossed_legs.map_or(defaults.crossed_legs_within, f64::from),
         ..defaults
     }
 }
@@ -329,10 +336,14 @@ struct Outcome {
     height_m: f64,
     seconds: f64,
     backend: String,
+    /// Adam steps, a second run's included.
     steps: u32,
     stop: Stop,
     /// The swap the swap test kept, if any.
     swap: Option<LimbSwap>,
+    /// Whether a second run from the legs crossed over ran (`FitOptions::crossed_legs_within`),
+    /// and if so whether the fit ends there.
+    crossed: Option<bool>,
 }
 
 /// Fits one seed; writes pictures when `pictures` is set.
@@ -403,6 +414,18 @@ fn fit_seed(
             candidates.join(", ")
         );
     }
+    let crossed = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref().map(|_| c.kept));
+    let second_steps = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref()).map_or(0, |r| r.steps);
+    if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
+        println!(
+            "crossed legs: fitted {:.3e}, crossed pose {:.3e} ({:.2} times the error where they differ) → {}{}",
+            c.fitted_energy,
+            c.start_energy,
+            c.changed_ratio,
+            c.energy.map_or("not run".to_string(), |e| format!("{e:.3e}")),
+            if c.kept { " (kept)" } else { "" }
+        );
+    }
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
@@ -426,7 +449,7 @@ fn fit_seed(
         }
     }
     let backend = fit.renderer().backend_name();
-    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps, stop: run.stop, swap })
+    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps + second_steps, stop: run.stop, swap, crossed })
 }
 
 /// Runs the command line; a failure is reported on stderr with exit status 1.

@@ -35,6 +35,12 @@ pub use state::FitState;
 #[path = "swap.rs"]
 mod swap;
 pub use swap::{limb_swaps, LimbSwap, SwapCandidate, SwapReport, SwapScreen};
+// The legs crossed over, the candidate of `fit`'s second run, in its own file (it shares the
+// swap test's joint-rotation helpers).
+#[path = "crossed_legs.rs"]
+mod crossed_legs;
+pub(in crate::pose::fit) use crossed_legs::changed_pixels_ratio;
+pub use crossed_legs::crossed_legs;
 
 /// The numbers of one fitting step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -261,6 +267,16 @@ impl PoseFit {
     /// Which parameters the steps change.
     pub fn free(&self) -> Free {
         self.free
+    }
+
+    /// The model being fitted.
+    pub fn model(&self) -> &SkinnedMesh {
+        &self.model
+    }
+
+    /// The target silhouettes, one per camera.
+    pub fn targets(&self) -> &[Image] {
+        &self.targets
     }
 
     /// The current pose.

@@ -305,7 +305,7 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
 }
 
 /// The rotation of a joint's world transform (its columns normalised: a uniform scale divided out).
-fn rotation(g: &Mat4) -> Mat3 {
+pub(super) fn rotation(g: &Mat4) -> Mat3 {
     let m = Mat3::from_mat4(*g);
     Mat3::from_cols(m.x_axis.normalize_or_zero(), m.y_axis.normalize_or_zero(), m.z_axis.normalize_or_zero())
 }
@@ -316,7 +316,7 @@ fn reflection(n: Vec3) -> Mat3 {
 }
 
 /// The rotation vector (axis × angle, angle in [0, π]) of a rotation matrix.
-fn axis_angle(m: Mat3) -> Vec3 {
+pub(super) fn axis_angle(m: Mat3) -> Vec3 {
     let q = Quat::from_mat3(&m).normalize();
     let q = if q.w < 0.0 { -q } else { q };
     let (axis, angle) = q.to_axis_angle();
@@ -324,7 +324,7 @@ fn axis_angle(m: Mat3) -> Vec3 {
 }
 
 /// `root` and every joint below it, in joint order.
-fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
+pub(super) fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
     let mut inside = vec![false; parents.len()];
     inside[root] = true;
     let mut out = vec![root];
@@ -358,7 +358,7 @@ fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
 
 /// The joints of the subtrees under `a` and `b` paired in joint order, when the two have the same
 /// shape (each pair's parents paired too); `None` otherwise.
-fn matched_subtrees(parents: &[Option<usize>], a: usize, b: usize) -> Option<Vec<(usize, usize)>> {
+pub(super) fn matched_subtrees(parents: &[Option<usize>], a: usize, b: usize) -> Option<Vec<(usize, usize)>> {
     let (sa, sb) = (subtree(parents, a), subtree(parents, b));
     if sa.len() != sb.len() {
         return None;

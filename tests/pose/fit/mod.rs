@@ -2,6 +2,7 @@
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
 mod call;
+mod crossed_legs;
 mod hypotheses;
 mod inflation;
 mod interval;

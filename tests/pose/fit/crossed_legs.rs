@@ -1,0 +1,179 @@
+//! The second run of `fit::fit` from the legs crossed over (`crossed_legs`,
+//! `FitOptions::crossed_legs_within`): the candidate turns each leg bone to point at the other
+//! leg's joint and changes nothing else; the fit keeps whichever run ends lower and ends at that
+//! run's energy; a fit whose legs hold each other's places ends with them in their own; the
+//! second run can be switched off and cancelled, and a bad bound is an error.
+
+use std::ops::ControlFlow;
+
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{
+    crossed_legs, fit, framing_ring, per_vertex_error, random_pose, FitOptions, Progress, Stop, RAISED_ELEVATION_DEG,
+};
+use diffsil::pose::skin::{Pose, SkinnedMesh};
+use diffsil::{Camera, Error, Image, Mat3, RenderSettings, Renderer, Vec3};
+
+/// The built-in figure's joint named `name`.
+fn joint(model: &SkinnedMesh, name: &str) -> usize {
+    model.skeleton.names.iter().position(|n| n == name).unwrap_or_else(|| panic!("no joint {name}"))
+}
+
+/// 4 views on the raised ring at `resolution`², the silhouettes of `truth`.
+fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<Camera>, Vec<Image>) {
+    let rest = model.posed_mesh(&Pose::rest(model.joint_count())).unwrap();
+    let cameras = framing_ring(&rest, 4, resolution, RAISED_ELEVATION_DEG.to_radians());
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let targets = renderer.render(&model.posed_mesh(truth).unwrap(), &cameras).unwrap().images().to_vec();
+    (cameras, targets)
+}
+
+fn renderer() -> Renderer {
+    Renderer::new(RenderSettings::default()).unwrap()
+}
+
+fn go_on(_: &diffsil::pose::fit::PoseFit, _: &Progress) -> ControlFlow<()> {
+    ControlFlow::Continue(())
+}
+
+#[test]
+fn each_leg_bone_points_at_the_other_legs_joint_and_nothing_else_moves() {
+    let model = builtin_figure();
+    let limits = random_pose_limits(&model.skeleton);
+    let chains = ["hip", "knee", "ankle", "foot"]
+        .map(|j| (joint(&model, &format!("left_{j}")), joint(&model, &format!("right_{j}"))));
+    let legs: Vec<usize> = chains.iter().flat_map(|&(l, r)| [l, r]).collect();
+    for seed in [1, 2, 3, 109] {
+        let pose = random_pose(&limits, 30f32.to_radians(), seed);
+        let crossed = crossed_legs(&model, &pose).unwrap().expect("the figure has legs");
+        assert_eq!((crossed.orientation, crossed.translation), (pose.orientation, pose.translation));
+        for j in (0..model.joint_count()).filter(|j| !legs.contains(j)) {
+            assert_eq!(crossed.joint_rotations[j], pose.joint_rotations[j], "seed {seed}: joint {j} moved");
+        }
+        let before = model.joint_transforms(&pose).unwrap();
+        let after = model.joint_transforms(&crossed).unwrap();
+        let at = |g: &[glam::Mat4], j: usize| g[j].w_axis.truncate();
+        let (hip_l, hip_r) = chains[0];
+        let hips = (at(&before, hip_l) - at(&before, hip_r)).length();
+        for (own, other) in [(0, 1), (1, 0)] {
+            let leg = |k: usize| if own == 0 { chains[k].0 } else { chains[k].1 };
+            let partner = |k: usize| if other == 0 { chains[k].0 } else { chains[k].1 };
+            assert!((at(&after, leg(0)) - at(&before, leg(0))).length() < 1e-6, "seed {seed}: the hip stays");
+            for k in 0..3 {
+                // The bone from this leg's joint k to joint k + 1 keeps its length and points
+                // at the other leg's joint k + 1 (where it was), so it lands within a hip's width.
+                let bone = at(&after, leg(k + 1)) - at(&after, leg(k));
+                let old_bone = at(&before, leg(k + 1)) - at(&before, leg(k));
+                let want = at(&before, partner(k + 1)) - at(&after, leg(k));
+                assert!((bone.length() - old_bone.length()).abs() < 1e-5, "seed {seed}: bone {k}");
+                let cos = bone.normalize().dot(want.normalize());
+                assert!(cos > 1.0 - 1e-5, "seed {seed}: bone {k} off by acos {cos}");
+                let miss = (at(&after, leg(k + 1)) - at(&before, partner(k + 1))).length();
+                assert!(miss <= hips + 1e-4, "seed {seed}: joint {} lands {miss} from the other's, hips {hips}", k + 1);
+            }
+            // The foot takes the other foot's world rotation.
+            let rotation = |g: &[glam::Mat4], j: usize| Mat3::from_mat4(g[j]);
+            let rest = model.joint_transforms(&Pose::rest(model.joint_count())).unwrap();
+            let moved = |g: &[glam::Mat4], j: usize| rotation(g, j) * rotation(&rest, j).transpose();
+            assert!(moved(&after, leg(3)).abs_diff_eq(moved(&before, partner(3)), 1e-4), "seed {seed}: the foot");
+        }
+    }
+}
+
+#[test]
+fn a_skeleton_without_legs_or_a_wrong_pose_has_no_crossed_legs() {
+    assert_eq!(crossed_legs(&super::chain(), &Pose::rest(2)).unwrap(), None);
+    let model = builtin_figure();
+    assert!(crossed_legs(&model, &Pose::rest(3)).is_err());
+    let mut bad = Pose::rest(model.joint_count());
+    bad.joint_rotations[1] = Vec3::NAN;
+    assert!(crossed_legs(&model, &bad).is_err());
+}
+
+#[test]
+fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
+    // The truth with its legs crossed over is where such fits end; a short fit from there keeps
+    // them there, and the crossed pose of its result (near the truth) wins the second run.
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 109);
+    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
+    let (cameras, targets) = views(&model, &truth, 32);
+    let truth_vertices = model.skin(&truth).unwrap();
+    let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
+    let options = FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, ..FitOptions::default() };
+    let mut calls = 0;
+    let mut last = 0;
+    let fitted = fit(model.clone(), cameras, targets, renderer(), &options, |_, p| {
+        calls += 1;
+        assert_eq!(p.step, last + 1, "steps numbered on across both runs");
+        last = p.step;
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let crossed = fitted.crossed_legs.as_ref().expect("looked at");
+    let second = crossed.report.as_ref().expect("the second run ran");
+    assert_eq!(calls, fitted.report.steps + second.steps);
+    assert!(crossed.changed_ratio <= FitOptions::CROSSED_LEGS_WITHIN, "{crossed:?}");
+    assert!(crossed.kept, "{crossed:?}");
+    let mut ended = fitted.fit;
+    assert_eq!(Some(ended.energy().unwrap()), crossed.energy);
+    let error = per_vertex_error(&ended.vertices().unwrap(), &truth_vertices);
+    assert!(error < 0.3 * start_error, "per-vertex error {start_error} → {error} m");
+    // The first run alone keeps the legs where they started.
+    let first_only = FitOptions { crossed_legs_within: 0.0, ..options };
+    let (cameras, targets) = views(&model, &truth, 32);
+    let alone = fit(model, cameras, targets, renderer(), &first_only, go_on).unwrap();
+    let alone_error = per_vertex_error(&alone.fit.vertices().unwrap(), &truth_vertices);
+    assert!(error < 0.5 * alone_error, "with the second run {error} m, without {alone_error} m");
+}
+
+#[test]
+fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
+    let (cameras, targets) = views(&model, &truth, 24);
+    let base = FitOptions { steps: 30, swap_steps: 2, ..FitOptions::default() };
+    // A bound no energy exceeds: the second run always runs.
+    let options = FitOptions { crossed_legs_within: 1e300, ..base.clone() };
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
+    let crossed = fitted.crossed_legs.clone().expect("looked at");
+    let second = crossed.energy.expect("ran to its end");
+    assert_eq!(crossed.report.as_ref().map(|r| r.stop == Stop::Cancelled), Some(false));
+    assert_eq!(crossed.kept, second < crossed.fitted_energy, "{crossed:?}");
+    let mut kept = fitted.fit;
+    assert_eq!(kept.energy().unwrap(), second.min(crossed.fitted_energy), "{crossed:?}");
+    let first_steps = fitted.report.steps;
+    // Off, or no pose fitted: not looked at.
+    for off in [FitOptions { crossed_legs_within: 0.0, ..base.clone() }, FitOptions { fit_pose: false, ..base.clone() }]
+    {
+        let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap();
+        assert!(fitted.crossed_legs.is_none());
+    }
+    // The first run alone ends where the fit with a second run does when that is not kept.
+    let off = FitOptions { crossed_legs_within: 0.0, ..base.clone() };
+    let mut first_only = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap().fit;
+    assert_eq!(first_only.energy().unwrap(), crossed.fitted_energy);
+    if !crossed.kept {
+        assert_eq!(kept.pose(), first_only.pose());
+    }
+    // Cancelled three steps into the second run: back where the first ended.
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, p| {
+        if p.step > first_steps + 3 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    let crossed = fitted.crossed_legs.expect("looked at");
+    let second = crossed.report.expect("started");
+    assert_eq!((second.stop, second.steps, crossed.energy, crossed.kept), (Stop::Cancelled, 4, None, false));
+    assert!(crossed.swap.is_none());
+    let mut cancelled = fitted.fit;
+    assert_eq!(cancelled.pose(), first_only.pose());
+    assert_eq!(cancelled.energy().unwrap(), crossed.fitted_energy);
+    for bad in [f64::NAN, -1.0, f64::INFINITY] {
+        let options = FitOptions { crossed_legs_within: bad, ..base.clone() };
+        let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on);
+        assert!(matches!(result, Err(Error::InvalidSettings(_))), "bound {bad}: {result:?}");
+    }
+}
