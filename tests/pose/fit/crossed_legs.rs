@@ -7,24 +7,15 @@
 use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{
-    crossed_legs, fit, framing_ring, per_vertex_error, random_pose, FitOptions, Progress, Stop, RAISED_ELEVATION_DEG,
-};
+use diffsil::pose::fit::{crossed_legs, fit, per_vertex_error, random_pose, FitOptions, Progress, Stop};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Camera, Error, Image, Mat3, RenderSettings, Renderer, Vec3};
+use diffsil::{Error, Mat3, RenderSettings, Renderer, Vec3};
+
+use super::swap::views;
 
 /// The built-in figure's joint named `name`.
 fn joint(model: &SkinnedMesh, name: &str) -> usize {
     model.skeleton.names.iter().position(|n| n == name).unwrap_or_else(|| panic!("no joint {name}"))
-}
-
-/// 4 views on the raised ring at `resolution`², the silhouettes of `truth`.
-fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<Camera>, Vec<Image>) {
-    let rest = model.posed_mesh(&Pose::rest(model.joint_count())).unwrap();
-    let cameras = framing_ring(&rest, 4, resolution, RAISED_ELEVATION_DEG.to_radians());
-    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
-    let targets = renderer.render(&model.posed_mesh(truth).unwrap(), &cameras).unwrap().images().to_vec();
-    (cameras, targets)
 }
 
 fn renderer() -> Renderer {

@@ -39,8 +39,9 @@ fn limbs(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
         .collect()
 }
 
-/// 4 views on the raised ring at `resolution`², the silhouettes of `truth`.
-fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<Camera>, Vec<Image>) {
+/// 4 views on the raised ring at `resolution`², the silhouettes of `truth` (also used by
+/// `crossed_legs.rs`).
+pub(super) fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<Camera>, Vec<Image>) {
     let rest = model.posed_mesh(&Pose::rest(model.joint_count())).unwrap();
     let cameras = framing_ring(&rest, 4, resolution, RAISED_ELEVATION_DEG.to_radians());
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
