@@ -12,7 +12,8 @@ use crate::{Image, Result};
 /// turned to point at the other leg's matching joints (the thigh at the other knee, the shin at
 /// the other ankle, …), and each leg's last joint given the other's world rotation. The bones
 /// keep their lengths and the hips stay, so each joint lands within a hip's width of the other
-/// leg's. Only the legs' joint rotations change. `None` when the skeleton has no pair of legs
+/// leg's (the joints of the mean shape, `β` = 0, whatever shape the fit holds). Only the legs'
+/// joint rotations change. `None` when the skeleton has no pair of legs
 /// with the same joint tree (the legs of
 /// [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses)); errors when `pose` does
 /// not fit the skeleton.
