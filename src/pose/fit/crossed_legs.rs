@@ -3,7 +3,7 @@
 
 use glam::{Mat3, Quat, Vec3};
 
-use super::swap::{axis_angle, matched_subtrees, rotation};
+use super::swap::{joint_rotation, matched_subtrees, world_rotations};
 use crate::pose::fit::poses::mirrored_pairs;
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Image, Result};
@@ -37,11 +37,9 @@ pub fn crossed_legs(model: &SkinnedMesh, pose: &Pose) -> Result<Option<Pose>> {
         partner[a] = Some(b);
         partner[b] = Some(a);
     }
-    let rest_rot: Vec<Mat3> = model.joint_transforms(&Pose::rest(n))?.iter().map(rotation).collect();
-    let posed = model.joint_transforms(pose)?;
-    let at: Vec<Vec3> = posed.iter().map(|g| g.w_axis.truncate()).collect();
     // Each joint's world rotation relative to rest, `T_k = Q_k Q⁰_kᵀ`, as in the swap test.
-    let moved: Vec<Mat3> = posed.iter().zip(&rest_rot).map(|(g, q0)| rotation(g) * q0.transpose()).collect();
+    let (rest_rot, moved, posed) = world_rotations(model, pose)?;
+    let at: Vec<Vec3> = posed.iter().map(|g| g.w_axis.truncate()).collect();
     let depth = |mut j: usize| {
         let mut d = 0;
         while let Some(p) = parents[j] {
@@ -74,8 +72,7 @@ pub fn crossed_legs(model: &SkinnedMesh, pose: &Pose) -> Result<Option<Pose>> {
     }
     let mut out = pose.clone();
     for &k in &order {
-        let parent = parents[k].map_or(Mat3::IDENTITY, |p| t[p]);
-        out.joint_rotations[k] = axis_angle(rest_rot[k].transpose() * parent.transpose() * t[k] * rest_rot[k]);
+        out.joint_rotations[k] = joint_rotation(parents, &rest_rot, &t, k);
     }
     Ok(Some(out))
 }

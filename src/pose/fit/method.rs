@@ -410,7 +410,6 @@ pub fn fit(
     let start_energy = fit.energy()?;
     fit.set_outline(outline)?;
     let changed_ratio = changed_pixels_ratio(&fit.render()?, &fitted_images, fit.targets());
-    fit.set_outline(0.0)?;
     let mut outcome = CrossedLegsReport {
         fitted_energy,
         start_energy,

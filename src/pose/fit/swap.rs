@@ -208,10 +208,7 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
     let pairs = mirrored_pairs(model);
     let Some(&(left_leg, right_leg)) = pairs.first() else { return Ok(Vec::new()) };
     let arms = pairs.get(1).map(|&(a, b)| (shoulder(model, a), shoulder(model, b)));
-    let rest = model.joint_transforms(&Pose::rest(model.joint_count()))?;
-    let posed = model.joint_transforms(pose)?;
-    let rest_rot: Vec<Mat3> = rest.iter().map(rotation).collect();
-    let moved: Vec<Mat3> = posed.iter().zip(&rest_rot).map(|(g, q0)| rotation(g) * q0.transpose()).collect();
+    let (rest_rot, moved, posed) = world_rotations(model, pose)?;
     let at = |j: usize| posed[j].w_axis.truncate();
     let lateral = at(left_leg) - at(right_leg);
     let hips = 0.5 * (at(left_leg) + at(right_leg));
@@ -295,17 +292,32 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             // Limbs change whole subtrees, whose roots' parents keep their rotations.
             let mut out = pose.clone();
             for k in (0..n).filter(|&k| changed[k]) {
-                let parent = parents[k].map_or(Mat3::IDENTITY, |p| t[p]);
-                let local = rest_rot[k].transpose() * parent.transpose() * t[k] * rest_rot[k];
-                out.joint_rotations[k] = axis_angle(local);
+                out.joint_rotations[k] = joint_rotation(parents, &rest_rot, &t, k);
             }
             (kind, out)
         })
         .collect())
 }
 
+/// Each joint's rest world rotation `Q⁰`, its world rotation relative to rest at `pose`,
+/// `T = Q Q⁰ᵀ`, and its world transform at `pose`.
+pub(super) fn world_rotations(model: &SkinnedMesh, pose: &Pose) -> Result<(Vec<Mat3>, Vec<Mat3>, Vec<Mat4>)> {
+    let rest = model.joint_transforms(&Pose::rest(model.joint_count()))?;
+    let posed = model.joint_transforms(pose)?;
+    let rest_rot: Vec<Mat3> = rest.iter().map(rotation).collect();
+    let moved: Vec<Mat3> = posed.iter().zip(&rest_rot).map(|(g, q0)| rotation(g) * q0.transpose()).collect();
+    Ok((rest_rot, moved, posed))
+}
+
+/// Joint `k`'s rotation offset `θ_k` for the world rotations relative to rest `t` (its parent's
+/// included): `R(θ_k) = Q⁰_kᵀ T_pᵀ T_k Q⁰_k`.
+pub(super) fn joint_rotation(parents: &[Option<usize>], rest_rot: &[Mat3], t: &[Mat3], k: usize) -> Vec3 {
+    let parent = parents[k].map_or(Mat3::IDENTITY, |p| t[p]);
+    axis_angle(rest_rot[k].transpose() * parent.transpose() * t[k] * rest_rot[k])
+}
+
 /// The rotation of a joint's world transform (its columns normalised: a uniform scale divided out).
-pub(super) fn rotation(g: &Mat4) -> Mat3 {
+fn rotation(g: &Mat4) -> Mat3 {
     let m = Mat3::from_mat4(*g);
     Mat3::from_cols(m.x_axis.normalize_or_zero(), m.y_axis.normalize_or_zero(), m.z_axis.normalize_or_zero())
 }
@@ -316,7 +328,7 @@ fn reflection(n: Vec3) -> Mat3 {
 }
 
 /// The rotation vector (axis × angle, angle in [0, π]) of a rotation matrix.
-pub(super) fn axis_angle(m: Mat3) -> Vec3 {
+fn axis_angle(m: Mat3) -> Vec3 {
     let q = Quat::from_mat3(&m).normalize();
     let q = if q.w < 0.0 { -q } else { q };
     let (axis, angle) = q.to_axis_angle();
