@@ -32,17 +32,21 @@ impl SelfIntersectionChecker {
         }
         let prims = &bvh.primitive_indices;
         // Boxes and triangles in the BVH's primitive order: a leaf's primitives are contiguous.
-        self.ordered_boxes.clear();
-        self.ordered_boxes.extend(prims.iter().map(|&p| self.aabbs[p as usize]));
-        self.ordered_tris.clear();
-        self.ordered_tris.extend(prims.iter().map(|&p| self.triangles[p as usize]));
-        let (boxes, tris) = (&self.ordered_boxes, &self.ordered_tris);
+        self.lanes.fill(prims, &self.aabbs, &self.triangles);
+        let lanes = &self.lanes;
         let candidates = &mut self.candidates;
-        // Hot path: box overlap and the shared-vertex filter only; exact tests come after.
-        let mut consider = |k: u32, l: u32| {
-            let (ti, tj) = (&tris[k as usize], &tris[l as usize]);
-            if !share_vertex(ti, tj) && boxes[k as usize].intersect_aabb(&boxes[l as usize]) {
-                candidates.push([k, l]);
+        // Hot path: triangle `k` against the triangles `first..end` of a leaf, four at a time:
+        // the boxes that meet, less the neighbours (a shared vertex), as bit masks; exact tests
+        // come after, on the few left.
+        let mut consider = |k: u32, first: u32, end: u32| {
+            for group in (first..end).step_by(4) {
+                let lanes_left = (end - group).min(4) as usize;
+                let mut met =
+                    lanes.overlaps(k as usize, group as usize, lanes_left) & !lanes.shared(k as usize, group as usize);
+                while met != 0 {
+                    candidates.push([k, group + met.trailing_zeros()]);
+                    met &= met - 1;
+                }
             }
         };
         let stack = &mut self.stack;
@@ -56,9 +60,7 @@ impl SelfIntersectionChecker {
                 if na.is_leaf() {
                     let end = na.first_index + na.prim_count;
                     for k in na.first_index..end {
-                        for l in k + 1..end {
-                            consider(k, l);
-                        }
+                        consider(k, k + 1, end);
                     }
                 } else {
                     let (l, r) = (na.first_index, na.first_index + 1);
@@ -73,9 +75,7 @@ impl SelfIntersectionChecker {
             match (na.is_leaf(), nb.is_leaf()) {
                 (true, true) => {
                     for k in na.first_index..na.first_index + na.prim_count {
-                        for l in nb.first_index..nb.first_index + nb.prim_count {
-                            consider(k, l);
-                        }
+                        consider(k, nb.first_index, nb.first_index + nb.prim_count);
                     }
                 }
                 (a_leaf, b_leaf) => {
@@ -104,20 +104,6 @@ impl SelfIntersectionChecker {
         }
         work
     }
-}
-
-/// Whether two triangles share a vertex index (branch-free).
-#[inline(always)]
-fn share_vertex(a: &[u32; 3], b: &[u32; 3]) -> bool {
-    (a[0] == b[0])
-        | (a[0] == b[1])
-        | (a[0] == b[2])
-        | (a[1] == b[0])
-        | (a[1] == b[1])
-        | (a[1] == b[2])
-        | (a[2] == b[0])
-        | (a[2] == b[1])
-        | (a[2] == b[2])
 }
 
 #[cfg(test)]
