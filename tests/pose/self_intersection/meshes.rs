@@ -412,8 +412,8 @@ fn figure_elbow_folded_into_torso() {
 
 /// The crossing pairs equal a brute-force scan of every pair of triangles (those sharing a
 /// vertex left out) on the built-in figure, one checker refitted along a sequence of poses: the
-/// elbow folded into the torso, then random poses with a wide range of joint rotations, each
-/// folded into the next. The BVH's leaves hold up to eight triangles, tested four at a time, so
+/// elbow folded into the torso, then random poses with joint rotations up to 1.6 times the
+/// random poses' limits. The BVH's leaves hold up to eight triangles, tested four at a time, so
 /// this covers full and partial groups of lanes on a real mesh.
 #[test]
 fn crossing_pairs_match_brute_force_on_posed_figures() {
