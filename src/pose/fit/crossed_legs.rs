@@ -40,17 +40,9 @@ pub fn crossed_legs(model: &SkinnedMesh, pose: &Pose) -> Result<Option<Pose>> {
     // Each joint's world rotation relative to rest, `T_k = Q_k Q⁰_kᵀ`, as in the swap test.
     let (rest_rot, moved, posed) = world_rotations(model, pose)?;
     let at: Vec<Vec3> = posed.iter().map(|g| g.w_axis.truncate()).collect();
-    let depth = |mut j: usize| {
-        let mut d = 0;
-        while let Some(p) = parents[j] {
-            d += 1;
-            j = p;
-        }
-        d
-    };
-    // Parents before children, whatever the joint order.
+    // Parents before children: a skeleton lists every joint after its parent.
     let mut order: Vec<usize> = matched.iter().flat_map(|&(a, b)| [a, b]).collect();
-    order.sort_by_key(|&j| (depth(j), j));
+    order.sort_unstable();
     let (mut t, mut new_at) = (moved.clone(), at.clone());
     for &k in &order {
         let children: Vec<usize> = (0..n).filter(|&c| parents[c] == Some(k)).collect();

@@ -336,7 +336,7 @@ fn axis_angle(m: Mat3) -> Vec3 {
 }
 
 /// `root` and every joint below it, in joint order.
-pub(super) fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
+fn subtree(parents: &[Option<usize>], root: usize) -> Vec<usize> {
     let mut inside = vec![false; parents.len()];
     inside[root] = true;
     let mut out = vec![root];
