@@ -300,12 +300,17 @@ impl PoseFit {
     pub fn render(&mut self) -> Result<Vec<Image>> {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
-        let outline = self.outline_setting();
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
-        Ok(match outline {
-            Some(a) => frame.images().iter().map(|r| outline::apply(r, a).image).collect(),
-            None => frame.images().to_vec(),
-        })
+        Ok(self.outlined(frame.images()))
+    }
+
+    /// `images` (renders of the current pose, not outlined) as `E_sl` sees them: outlined by
+    /// [`PoseFit::outline`] when the fit has one.
+    pub(in crate::pose::fit) fn outlined(&self, images: &[Image]) -> Vec<Image> {
+        match self.outline_setting() {
+            Some(a) => images.iter().map(|r| outline::apply(r, a).image).collect(),
+            None => images.to_vec(),
+        }
     }
 
     /// The renderer (to ask for its backend name).
@@ -381,11 +386,17 @@ impl PoseFit {
     /// current blur, with the self-intersection surrogate as `E_spt` (what the descent
     /// minimises).
     pub fn energy(&mut self) -> Result<f64> {
+        Ok(self.energy_and_renders()?.0)
+    }
+
+    /// [`PoseFit::energy`] and the renders it was computed from (not outlined; see
+    /// [`PoseFit::outlined`]), from one render.
+    pub(in crate::pose::fit) fn energy_and_renders(&mut self) -> Result<(f64, Vec<Image>)> {
         let vertices = self.vertices()?;
         self.set_rendered_positions(&vertices)?;
         let frame = self.renderer.render(&self.mesh, &self.cameras)?;
         let surrogate = if self.lambda > 0.0 { self.checker.check(&vertices)?.surrogate } else { 0.0 };
-        self.energy_of(frame.images(), surrogate)
+        Ok((self.energy_of(frame.images(), surrogate)?, frame.images().to_vec()))
     }
 
     /// [`PoseFit::energy`] at the current state from its renders (`images`, not outlined) and its

@@ -404,12 +404,15 @@ pub fn fit(
     };
     let Some(crossed) = crossed else { return Ok(Fitted { fit, report, swap, crossed_legs: None }) };
     let (first, first_outline_rate, outline) = (fit.state(), fit.outline_rate(), fit.outline());
-    let fitted_energy = fit.energy()?;
-    let fitted_images = fit.render()?;
+    // One render of each pose serves its energy and the ratio: the fitted pose's under its
+    // outline, the crossed one's energy as a run starts (no outline) and its renders under the
+    // fit's outline.
+    let (fitted_energy, fitted_renders) = fit.energy_and_renders()?;
+    let fitted_images = fit.outlined(&fitted_renders);
     fit.restart(&crossed)?;
-    let start_energy = fit.energy()?;
+    let (start_energy, crossed_renders) = fit.energy_and_renders()?;
     fit.set_outline(outline)?;
-    let changed_ratio = changed_pixels_ratio(&fit.render()?, &fitted_images, fit.targets());
+    let changed_ratio = changed_pixels_ratio(&fit.outlined(&crossed_renders), &fitted_images, fit.targets());
     let mut outcome = CrossedLegsReport {
         fitted_energy,
         start_energy,
