@@ -234,6 +234,7 @@ impl SelfIntersectionChecker {
         // rebuilt rarely).
         let params = BvhBuildParams { max_prims_per_leaf: 8, ..BvhBuildParams::fast_build() };
         let bvh = build_bvh2(&self.aabbs, params, &mut time);
+        self.lanes.fill_triangles(&bvh.primitive_indices, &self.triangles);
         self.bvh = Some(bvh);
         self.rebuilds += 1;
         self.baseline_work = 0;

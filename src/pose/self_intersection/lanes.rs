@@ -28,8 +28,9 @@ pub(super) struct BoxLanes {
 const EXACT_INDEX: u32 = 1 << 24;
 
 impl BoxLanes {
-    /// Fills the lanes with `boxes[order[k]]` and `triangles[order[k]]`.
-    pub(super) fn fill(&mut self, order: &[u32], boxes: &[Aabb], triangles: &[[u32; 3]]) {
+    /// Fills the vertex-index lanes with `triangles[order[k]]` (when the BVH, and so its
+    /// primitive order, is built).
+    pub(super) fn fill_triangles(&mut self, order: &[u32], triangles: &[[u32; 3]]) {
         self.indices.clear();
         self.indices.extend(order.iter().map(|&p| triangles[p as usize]));
         self.exact = self.indices.iter().flatten().all(|&v| v < EXACT_INDEX);
@@ -41,6 +42,10 @@ impl BoxLanes {
                 corner.extend([f32::NAN; PAD]);
             }
         }
+    }
+
+    /// Fills the box lanes with `boxes[order[k]]` (at every check: the boxes move).
+    pub(super) fn fill_boxes(&mut self, order: &[u32], boxes: &[Aabb]) {
         for axis in 0..3 {
             for (bounds, of) in [(&mut self.lo[axis], 0), (&mut self.hi[axis], 1)] {
                 bounds.clear();
@@ -119,7 +124,7 @@ mod tests {
             .collect();
         let order: Vec<u32> = (0..boxes.len() as u32).rev().collect();
         let mut lanes = BoxLanes::default();
-        lanes.fill(&order, &boxes, &vec![[0, 1, 2]; boxes.len()]);
+        lanes.fill_boxes(&order, &boxes);
         let mut touching = 0;
         for k in 0..boxes.len() {
             for first in 0..boxes.len() {
@@ -149,7 +154,7 @@ mod tests {
         for triangles in [small, large] {
             let order: Vec<u32> = (0..triangles.len() as u32).collect();
             let mut lanes = BoxLanes::default();
-            lanes.fill(&order, &vec![Aabb::INVALID; triangles.len()], &triangles);
+            lanes.fill_triangles(&order, &triangles);
             let (mut some, mut none) = (0, 0);
             for k in 0..triangles.len() {
                 for first in 0..triangles.len() {

@@ -31,8 +31,9 @@ impl SelfIntersectionChecker {
             return 0;
         }
         let prims = &bvh.primitive_indices;
-        // Boxes and triangles in the BVH's primitive order: a leaf's primitives are contiguous.
-        self.lanes.fill(prims, &self.aabbs, &self.triangles);
+        // Boxes in the BVH's primitive order (the triangles were laid out so when it was built):
+        // a leaf's primitives are contiguous.
+        self.lanes.fill_boxes(prims, &self.aabbs);
         let lanes = &self.lanes;
         let candidates = &mut self.candidates;
         // Hot path: triangle `k` against the triangles `first..end` of a leaf, four at a time:
