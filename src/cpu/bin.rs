@@ -11,6 +11,7 @@
 
 use rayon::prelude::*;
 
+use super::coverage::BackFaceSkip;
 use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED_VERTEX};
 use crate::scene::mesh::Topology;
 use crate::scene::patches::FacePatches;
@@ -386,12 +387,14 @@ fn meets_wanted<D: TileDiv>(div: D, range: &TileRange, slots: &[u32], b: &[i32; 
 /// patch, each patch's in its face order: a patch whose faces' boxes together (their union) meet
 /// no wanted cell has none, and is passed over after one test. The pairs of a triangle of
 /// positive on-screen area (`orientation` 1) carry [`POSITIVE`] in their triangle index.
+/// A negative triangle that `back_faces` leaves out ([`BackFaces::leaves_out`]) has none.
 #[allow(clippy::too_many_arguments)]
 fn patch_pairs<D: TileDiv>(
     div: D,
     range: &TileRange,
     slots: &[u32],
     (boxes, orientation): (&[[i32; 4]], &[i8]),
+    back_faces: Option<BackFaces>,
     patches: &FacePatches,
     (first, end): (usize, usize),
     pairs: &mut Vec<(u32, u32)>,
@@ -407,10 +410,69 @@ fn patch_pairs<D: TileDiv>(
             continue;
         }
         for &t in faces {
-            let tagged = t | if orientation[t as usize] > 0 { POSITIVE } else { 0 };
-            box_pairs(div, range, slots, &boxes[t as usize], tagged, pairs);
+            let (o, b) = (orientation[t as usize], &boxes[t as usize]);
+            if o < 0 && back_faces.is_some_and(|back| back.leaves_out(t, b)) {
+                continue;
+            }
+            let tagged = t | if o > 0 { POSITIVE } else { 0 };
+            box_pairs(div, range, slots, b, tagged, pairs);
         }
     }
+}
+
+/// The negative triangles (back faces) that [`bin_tiles`] may leave out of the occluder lists
+/// without changing which points they cover, and so without changing a visible interval.
+///
+/// Why. The occluder test of `edge_grad` asks whether a point just outside a segment is covered
+/// by a triangle of non-zero float area. As for the forward's [`BackFaceSkip`] (whose
+/// documentation has the identity), `N₊(p) − N₋(p)`, the numbers of positive and negative
+/// triangles covering a point, is the winding number of the mesh's oriented boundary, zero
+/// outside the boundary's boxes. There a point covered by a negative triangle is covered by a
+/// positive one, so a negative triangle whose float box misses every boundary box covers
+/// nothing the positive ones do not (away from edges and vertices, which have no length on a
+/// segment). Two exceptions keep a negative triangle in the lists:
+/// - its snapped box, grown by two units, meets a boundary box: the identity may not hold there.
+///   Snapping (`floor(x·units + 0.5)` in `f32`) moves a vertex by less than one unit within
+///   ±2²² units ([`back_face_boundary`] gives no boundary beyond), so two snapped boxes at least
+///   three units apart hold float boxes that do not meet;
+/// - it is a face of a candidate edge (`kept`): the coincident-edge rule of `edge_grad` ranks a
+///   stretch of boundary by the lowest index of the faces on its inside, which may be a
+///   negative one. A negative triangle none of whose edges is a candidate has a face across
+///   each edge, so no stretch of its edges is a boundary that a rank could decide.
+///
+/// The identity needs every triangle in the sum: the backward uses this only when no triangle is
+/// culled. A closed, consistently oriented mesh has no boundary box, so about half of its
+/// triangles (those facing away) drop out of the lists.
+#[derive(Clone, Copy, Debug)]
+pub struct BackFaces<'a> {
+    /// The boxes of the mesh's oriented boundary in this view (snapped units).
+    pub boundary: &'a BackFaceSkip,
+    /// One bit per triangle (bit `t % 64` of word `t / 64`): set for the faces of candidate edges.
+    pub kept: &'a [u64],
+}
+
+impl BackFaces<'_> {
+    /// Whether the negative triangle `t`, whose snapped box is `b`, may be left out.
+    #[inline]
+    pub fn leaves_out(&self, t: u32, b: &[i32; 4]) -> bool {
+        let kept = self.kept[t as usize / 64] >> (t % 64) & 1 != 0;
+        let grown = [b[0].saturating_sub(2), b[1].saturating_sub(2), b[2].saturating_add(2), b[3].saturating_add(2)];
+        !kept && self.boundary.skips(grown)
+    }
+}
+
+/// The boxes of the oriented boundary of `topology` seen with these snapped vertices, for
+/// [`BackFaces`]; `None` when the back faces must stay in the lists: when a triangle is culled
+/// (`culled_triangles`; the identity needs every triangle), or when a boundary box reaches
+/// ±2²² units or beyond (there `x·units` rounds in `f32`, and snapping can move a vertex by a
+/// unit or more).
+pub fn back_face_boundary(topology: &Topology, snapped: &[[i32; 2]], culled_triangles: u32) -> Option<BackFaceSkip> {
+    const LIMIT: i32 = 1 << 22;
+    if culled_triangles != 0 {
+        return None;
+    }
+    let boundary = BackFaceSkip::of_boundary(topology, snapped);
+    boundary.boxes.iter().flatten().all(|c| c.abs() < LIMIT).then_some(boundary)
 }
 
 /// The bit of a pair's triangle index in [`patch_pairs`] that marks a triangle of positive
@@ -442,13 +504,14 @@ pub struct CellBins {
 /// `t` (row-major) is wanted when `slots[t] != u32::MAX`, and its list is `out.bins.tile(slots[t])`
 /// (`0..lists`), which holds the same triangles as [`bin`]'s list: first those of positive
 /// on-screen area in the order of the topology's face patches ([`Topology::face_patches`]),
-/// then the others in the reverse of that order. Used by the
+/// then the others in the reverse of that order; with `back_faces`, less the negative triangles
+/// it leaves out ([`BackFaces`]: they cover no point the listed ones do not). Used by the
 /// CPU backward, which needs lists only where silhouette segments with a non-zero incoming
 /// gradient lie. `out`'s buffers are refilled (allocated only where they must grow).
 ///
 /// Why that order: a segment's scan stops as soon as its occluders cover it (most segments of a
 /// body are hidden), and the triangles of one orientation alone cover every point that the others
-/// do, away from the mesh's boundary (the identity behind [`BackFaceSkip`](super::coverage::BackFaceSkip)).
+/// do, away from the mesh's boundary (the identity behind [`BackFaceSkip`]).
 /// A hidden segment's cover is then found among the first half of its list. The order changes
 /// no result: a scan's intervals are kept sorted, and its early stop needs only the whole
 /// segment covered.
@@ -469,6 +532,7 @@ pub fn bin_tiles(
     screen: &[ScreenVertex],
     topology: &Topology,
     faces: (&[[i32; 4]], &[i8]),
+    back_faces: Option<BackFaces>,
     slots: &[u32],
     lists: usize,
     out: &mut CellBins,
@@ -491,8 +555,8 @@ pub fn bin_tiles(
         pairs.clear();
         let run = (task * PATCHES_PER_TASK, ((task + 1) * PATCHES_PER_TASK).min(patches.len()));
         match range.shift {
-            Some(shift) => patch_pairs(Shift(shift), &range, slots, faces, patches, run, pairs),
-            None => patch_pairs(Divide(range.tile_units), &range, slots, faces, patches, run, pairs),
+            Some(shift) => patch_pairs(Shift(shift), &range, slots, faces, back_faces, patches, run, pairs),
+            None => patch_pairs(Divide(range.tile_units), &range, slots, faces, back_faces, patches, run, pairs),
         }
     });
     let parts = &pairs[..tasks];

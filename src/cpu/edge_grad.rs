@@ -12,6 +12,7 @@ use glam::{DVec2, Vec4};
 use rayon::prelude::*;
 
 use super::bin::{self, Bins, CellGrid};
+use super::coverage::BackFaceSkip;
 use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::reference::closed_form::{clip_parameter, segment_weights};
@@ -369,6 +370,8 @@ pub struct EdgeGradScratch {
     results: Vec<(EdgeGrad, BackwardStats)>,
     /// Each task's scan buffers.
     scans: Vec<Scratch>,
+    /// One bit per triangle: the faces of candidate edges ([`bin::BackFaces::kept`]).
+    kept: Vec<u64>,
 }
 
 /// The gradient slot of every candidate edge: walks the pixels it crosses, keeps the visible
@@ -385,7 +388,12 @@ pub struct EdgeGradScratch {
 /// `slots` (same order).
 /// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
 /// segment is in the list of one of the segment's cells, and a triangle found twice or one that
-/// is no occluder adds nothing. `scratch` holds the buffers of the walk, the lists and the scans
+/// is no occluder adds nothing. With `back_faces` (the boxes of the mesh's oriented boundary in
+/// this view; only when no triangle is culled), the lists leave out the negative triangles that
+/// cover nothing the others do not ([`bin::BackFaces`]): the same covered points, so the same
+/// visible intervals (their end points can come from another triangle through the same edge,
+/// which can move them by a rounding of the last bit, far below the `f32` slots' precision).
+/// `scratch` holds the buffers of the walk, the lists and the scans
 /// from call to call: a loop of backward passes allocates only where a buffer must grow.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_grad(
@@ -394,13 +402,14 @@ pub fn edge_grad(
     screen: &[ScreenVertex],
     boxes: &[[i32; 4]],
     orientation: &[i8],
+    back_faces: Option<&BackFaceSkip>,
     topology: &Topology,
     candidates: &[(u32, i32)],
     d_image: &[f32],
     slots: &mut Vec<EdgeGrad>,
     scratch: &mut EdgeGradScratch,
 ) -> BackwardStats {
-    let EdgeGradScratch { walks, cell_lists, lists: cell_bins, results, scans } = scratch;
+    let EdgeGradScratch { walks, cell_lists, lists: cell_bins, results, scans, kept } = scratch;
     let edges = topology.edges();
     let geometry = |&(e, side): &(u32, i32)| edge_geometry(screen, edges[e as usize], side);
     // Walk every candidate edge once: its segments, grouped per task in candidate order.
@@ -440,7 +449,28 @@ pub fn edge_grad(
             }
         }
     }
-    bin::bin_tiles(params, grid, screen, topology, (boxes, orientation), cell_lists, lists as usize, cell_bins);
+    // The faces of the candidate edges stay in the lists whatever their orientation.
+    let back_faces = back_faces.map(|boundary| {
+        kept.clear();
+        kept.resize(orientation.len().div_ceil(64), 0);
+        for &(e, _) in candidates {
+            for &f in topology.edge_faces(e as usize) {
+                kept[f as usize / 64] |= 1 << (f % 64);
+            }
+        }
+        bin::BackFaces { boundary, kept }
+    });
+    bin::bin_tiles(
+        params,
+        grid,
+        screen,
+        topology,
+        (boxes, orientation),
+        back_faces,
+        cell_lists,
+        lists as usize,
+        cell_bins,
+    );
     let bins = &cell_bins.bins;
     results.clear();
     results.resize(candidates.len(), (EdgeGrad::default(), BackwardStats::default()));

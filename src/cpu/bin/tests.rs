@@ -154,7 +154,7 @@ fn patches_passed_over_lose_no_triangle() {
             }
         }
         let faces = (&boxes[..], &orientation[..]);
-        bin_tiles(&params, grid, &screen, topology, faces, &slots, wanted.len(), &mut lists);
+        bin_tiles(&params, grid, &screen, topology, faces, None, &slots, wanted.len(), &mut lists);
         let (u, limit) = (grid.cell_units as i64, [40 * params.units as i64, 24 * params.units as i64]);
         let overlaps = |b: [i32; 4], c: usize| {
             let cell = [(c % grid.cells_x as usize) as i64, (c / grid.cells_x as usize) as i64];
@@ -212,7 +212,7 @@ fn wanted_tiles_get_the_full_lists() {
         let mut orientation = vec![0; triangles.len()];
         edges::face_orientations(&screen, &triangles, &mut orientation);
         let faces = (&boxes[..], &orientation[..]);
-        bin_tiles(&params, CellGrid::tiles(&params), &screen, &topology, faces, &slots, wanted.len(), &mut lists);
+        bin_tiles(&params, CellGrid::tiles(&params), &screen, &topology, faces, None, &slots, wanted.len(), &mut lists);
         // Each face's place in patch order.
         let mut place = vec![0; triangles.len()];
         for (k, &f) in topology.face_patches().faces().iter().enumerate() {
@@ -230,4 +230,40 @@ fn wanted_tiles_get_the_full_lists() {
             assert_eq!(positive, b, "tile {t}");
         }
     }
+}
+
+/// The boundary boxes of [`back_face_boundary`]: none for a closed mesh, one per hole of an open
+/// one, and no boundary at all (back faces kept) with a culled triangle or a boundary at ±2²²
+/// units or beyond.
+#[test]
+fn back_face_boundary_only_where_snapping_is_within_a_unit() {
+    let sphere = crate::scene::shapes::icosphere(1);
+    let n = sphere.positions().len();
+    let snapped: Vec<[i32; 2]> = (0..n as i32).map(|k| [k * 7 % 50, k * 11 % 40]).collect();
+    let closed = back_face_boundary(sphere.topology(), &snapped, 0).unwrap();
+    assert!(closed.boxes.is_empty());
+    assert!(back_face_boundary(sphere.topology(), &snapped, 1).is_none(), "a culled triangle");
+    let mut holed = sphere.triangles().to_vec();
+    holed.remove(0);
+    let holed = Topology::new(n, holed).unwrap();
+    let hole = sphere.triangles()[0];
+    let boundary = back_face_boundary(&holed, &snapped, 0).unwrap();
+    let v = hole.map(|i| snapped[i as usize]);
+    let expected = [
+        v.iter().map(|p| p[0]).min().unwrap(),
+        v.iter().map(|p| p[1]).min().unwrap(),
+        v.iter().map(|p| p[0]).max().unwrap(),
+        v.iter().map(|p| p[1]).max().unwrap(),
+    ];
+    assert_eq!(boundary.boxes, vec![expected]);
+    for far in [1 << 22, -(1 << 22), i32::MAX - 1] {
+        let mut moved = snapped.clone();
+        moved[hole[1] as usize][0] = far;
+        assert!(back_face_boundary(&holed, &moved, 0).is_none(), "boundary at {far}");
+        // The same vertex far away does not matter to a closed mesh, which has no boundary.
+        assert!(back_face_boundary(sphere.topology(), &moved, 0).is_some());
+    }
+    let mut near = snapped.clone();
+    near[hole[1] as usize][0] = (1 << 22) - 1;
+    assert!(back_face_boundary(&holed, &near, 0).is_some());
 }

@@ -42,6 +42,13 @@ impl BackFaceSkip {
         if snapped.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
+        Some(Self::of_boundary(topology, snapped))
+    }
+
+    /// The boxes of `topology`'s oriented boundary with these snapped vertices, which must all be
+    /// valid on the boundary (as they are when no triangle has a clipped vertex). The caller
+    /// answers for the rest of the identity: every triangle in the sum.
+    pub fn of_boundary(topology: &Topology, snapped: &[[i32; 2]]) -> BackFaceSkip {
         let components = topology.boundary_components();
         let count = components.len();
         let kept = count.min(Self::MAX_BOXES);
@@ -56,12 +63,12 @@ impl BackFaceSkip {
         let union = boxes.iter().fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |u, b| {
             [u[0].min(b[0]), u[1].min(b[1]), u[2].max(b[2]), u[3].max(b[3])]
         });
-        Some(BackFaceSkip { boxes, union })
+        BackFaceSkip { boxes, union }
     }
 
     /// Whether a negative triangle with this (closed) box may be skipped.
     #[inline]
-    pub(super) fn skips(&self, b: [i32; 4]) -> bool {
+    pub(crate) fn skips(&self, b: [i32; 4]) -> bool {
         let misses = |q: &[i32; 4]| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1];
         misses(&self.union) || self.boxes.iter().all(misses)
     }

@@ -84,7 +84,7 @@ fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
 /// The tests' damaged closed meshes: `kind` 0 keeps `triangles`, 1 punches holes (drops about
 /// 5% of the faces), 2 flips about 3% of them, 3 keeps the first half (an open patch).
 #[cfg(test)]
-fn damage(triangles: &mut Vec<[u32; 3]>, kind: usize, rand: &mut impl FnMut() -> f64) {
+pub(crate) fn damage(triangles: &mut Vec<[u32; 3]>, kind: usize, rand: &mut impl FnMut() -> f64) {
     match kind {
         0 => {}
         1 => triangles.retain(|_| rand() > 0.05),

@@ -85,7 +85,8 @@ fn reference_gradient(
 }
 
 /// Runs the stage on a scene and asserts that every slot and the statistics are the
-/// reference's; returns the statistics.
+/// reference's, with the back faces left out of the lists ([`bin::BackFaces`]) and without;
+/// returns the statistics and how many list entries leaving them out saved.
 fn compare_with_reference(
     params: &RasterParams,
     grid: CellGrid,
@@ -93,7 +94,7 @@ fn compare_with_reference(
     topology: &Topology,
     d_image: &[f32],
     what: &str,
-) -> BackwardStats {
+) -> (BackwardStats, usize) {
     let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
     let mut orientation = vec![0i8; topology.triangles().len()];
     edges::face_orientations(screen, topology.triangles(), &mut orientation);
@@ -102,8 +103,38 @@ fn compare_with_reference(
     let mut slots = Vec::new();
     let boxes = bin::snapped_boxes(&snapped, topology.triangles());
     let mut scratch = EdgeGradScratch::default();
-    let stats =
-        edge_grad(params, grid, screen, &boxes, &orientation, topology, &candidates, d_image, &mut slots, &mut scratch);
+    let back_faces = bin::back_face_boundary(topology, &snapped, 0);
+    let stats = edge_grad(
+        params,
+        grid,
+        screen,
+        &boxes,
+        &orientation,
+        back_faces.as_ref(),
+        topology,
+        &candidates,
+        d_image,
+        &mut slots,
+        &mut scratch,
+    );
+    let entries = scratch.lists.bins.triangles.len();
+    let (mut all_slots, mut all_scratch) = (Vec::new(), EdgeGradScratch::default());
+    let all_stats = edge_grad(
+        params,
+        grid,
+        screen,
+        &boxes,
+        &orientation,
+        None,
+        topology,
+        &candidates,
+        d_image,
+        &mut all_slots,
+        &mut all_scratch,
+    );
+    assert_eq!((all_stats, &all_slots), (stats, &slots), "{what}: leaving back faces out changed the result");
+    let all_entries = all_scratch.lists.bins.triangles.len();
+    assert!(entries <= all_entries, "{what}");
     let mut full = Bins::default();
     bin::bin(params, screen, &snapped, topology.triangles(), &mut full);
     let mut expected = BackwardStats::default();
@@ -115,7 +146,7 @@ fn compare_with_reference(
         expected = expected + s;
     }
     assert_eq!(stats, expected, "{what}");
-    stats
+    (stats, all_entries - entries)
 }
 
 /// Lists longer than a scan block ([`SCAN_BLOCK`]): two dense overlapping spheres in a small
@@ -155,14 +186,17 @@ fn long_lists_same_bits_as_the_reference() {
     bin::bin(&params, &screen, &snapped, pair.triangles(), &mut full);
     let longest = (0..params.tiles_x * params.tiles_y).map(|t| full.tile(t as usize).count()).max().unwrap();
     assert!(longest > 4 * SCAN_BLOCK, "lists of at most {longest} entries do not span several blocks");
-    let stats = compare_with_reference(&params, grid, &screen, pair.topology(), &d_image, "two dense spheres");
+    let (stats, dropped) =
+        compare_with_reference(&params, grid, &screen, pair.topology(), &d_image, "two dense spheres");
+    assert!(dropped > 0, "no back face left out of the lists");
     assert!(stats.segments > stats.visible_segments, "no hidden segment: {stats:?}");
     assert!(stats.visible_segments > 0, "no visible segment: {stats:?}");
 }
 
-/// The stage (lazy lists, f32 box test, gathered hits, early exit on hidden segments) gives the
-/// reference's bits, on random folded meshes with overlaps, ties on pixel borders, coincident
-/// edges (a mesh with a copy of itself) and a sparse `∂L/∂I`.
+/// The stage (lazy lists, back faces left out, f32 box test, gathered hits, early exit on hidden
+/// segments) gives the reference's bits, on random folded meshes with overlaps, ties on pixel
+/// borders, coincident edges (a mesh with a copy of itself), open meshes (holes, flipped faces,
+/// half a sphere: their oriented boundary keeps the back faces near it) and a sparse `∂L/∂I`.
 #[test]
 fn same_bits_as_the_reference() {
     let mut seed = 0x6a09_e667_f3bc_c908u64;
@@ -180,13 +214,20 @@ fn same_bits_as_the_reference() {
         single.triangles().iter().copied().chain(single.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
     )
     .unwrap();
-    let mut hidden = 0;
-    for case in 0..40 {
+    let (mut hidden, mut dropped_closed, mut dropped_open) = (0, 0, 0);
+    for case in 0..60 {
         let (w, h) = (20 + case % 7, 16 + case % 5);
         let mut params = RasterParams::new(w, h, 4, 1.0, 0.0).unwrap();
         params.set_tile_size([1, 2, 4][case as usize % 3]);
         let m = [rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0, rand() * 2.0 - 1.0];
-        let topology = if case % 3 == 1 { doubled.topology() } else { single.topology() };
+        let mut damaged = single.triangles().to_vec();
+        crate::cpu::coverage::damage(&mut damaged, 1 + case as usize / 3 % 3, &mut rand);
+        let damaged = Topology::new(single.positions().len(), damaged).unwrap();
+        let topology = match case % 3 {
+            0 => single.topology(),
+            1 => doubled.topology(),
+            _ => &damaged,
+        };
         let mut screen: Vec<ScreenVertex> = single
             .positions()
             .iter()
@@ -214,10 +255,20 @@ fn same_bits_as_the_reference() {
             2 => CellGrid::new(&params, params.units / 16),
             _ => CellGrid::new(&params, 3 * params.units / 5),
         };
-        let stats = compare_with_reference(&params, grid, &screen, topology, &d_image, &format!("case {case}"));
+        let (stats, dropped) =
+            compare_with_reference(&params, grid, &screen, topology, &d_image, &format!("case {case}"));
         hidden += stats.segments - stats.visible_segments;
+        if case % 3 == 2 {
+            dropped_open += dropped;
+        } else {
+            dropped_closed += dropped;
+        }
     }
     assert!(hidden > 100, "too few hidden segments ({hidden}) to test the early exit");
+    assert!(
+        dropped_closed > 1000 && dropped_open > 100,
+        "back faces left out: {dropped_closed} closed, {dropped_open} open"
+    );
 }
 
 #[test]
