@@ -389,7 +389,7 @@ pub struct EdgeGradScratch {
 /// The result is the same as with the full bins of [`bin::bin`] (tested): an occluder of a
 /// segment is in the list of one of the segment's cells, and a triangle found twice or one that
 /// is no occluder adds nothing. With `back_faces` (the boxes of the mesh's oriented boundary in
-/// this view; only when no triangle is culled), the lists leave out the negative triangles that
+/// this view, as [`bin::back_face_boundary`] gives them: only when no triangle is culled), the lists leave out the negative triangles that
 /// cover nothing the others do not ([`bin::BackFaces`]): the same covered points, so the same
 /// visible intervals (their end points can come from another triangle through the same edge,
 /// which can move them by a rounding of the last bit, far below the `f32` slots' precision).

@@ -23,6 +23,10 @@ use crate::scene::mesh::Topology;
 /// bit. A closed, consistently oriented mesh (no boundary) needs no box: about half of its
 /// triangles (the back faces, whichever way the camera looks) are skipped. The identity needs
 /// every triangle in the sum, so there is no skip when a vertex is clipped.
+///
+/// The backward asks the same question of the float geometry (is a point covered by any
+/// triangle?) and uses these boxes, with a margin for snapping, to leave back faces out of its
+/// occluder lists ([`BackFaces`](crate::cpu::bin::BackFaces)).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BackFaceSkip {
     /// The boxes; merged into at most [`BackFaceSkip::MAX_BOXES`].
