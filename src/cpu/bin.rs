@@ -435,10 +435,12 @@ fn patch_pairs<D: TileDiv>(
 ///   Snapping (`floor(x·units + 0.5)` in `f32`) moves a vertex by less than one unit within
 ///   ±2²² units ([`back_face_boundary`] gives no boundary beyond), so two snapped boxes at least
 ///   three units apart hold float boxes that do not meet;
-/// - it is a face of a candidate edge (`kept`): the coincident-edge rule of `edge_grad` ranks a
-///   stretch of boundary by the lowest index of the faces on its inside, which may be a
-///   negative one. A negative triangle none of whose edges is a candidate has a face across
-///   each edge, so no stretch of its edges is a boundary that a rank could decide.
+/// - it is the rank face of a candidate edge (`kept`): the coincident-edge rule of `edge_grad`
+///   gives a stretch of boundary lying on several edges to the one whose lowest face of
+///   non-zero orientation (its rank) has the lowest index, and a segment learns that another
+///   edge ranks first by finding that face in its lists. A candidate's faces all lie on its
+///   inside, so its rank face decides alone; a positive one is listed anyway. An edge that is
+///   no candidate has faces on both sides, and the one across covers the stretch's outside.
 ///
 /// The identity needs every triangle in the sum: the backward uses this only when no triangle is
 /// culled. A closed, consistently oriented mesh has no boundary box, so about half of its
@@ -447,7 +449,8 @@ fn patch_pairs<D: TileDiv>(
 pub struct BackFaces<'a> {
     /// The boxes of the mesh's oriented boundary in this view (snapped units).
     pub boundary: &'a BackFaceSkip,
-    /// One bit per triangle (bit `t % 64` of word `t / 64`): set for the faces of candidate edges.
+    /// One bit per triangle (bit `t % 64` of word `t / 64`): set for the negative rank faces of
+    /// candidate edges.
     pub kept: &'a [u64],
 }
 

@@ -370,7 +370,7 @@ pub struct EdgeGradScratch {
     results: Vec<(EdgeGrad, BackwardStats)>,
     /// Each task's scan buffers.
     scans: Vec<Scratch>,
-    /// One bit per triangle: the faces of candidate edges ([`bin::BackFaces::kept`]).
+    /// One bit per triangle: the negative rank faces of candidate edges ([`bin::BackFaces::kept`]).
     kept: Vec<u64>,
 }
 
@@ -449,12 +449,14 @@ pub fn edge_grad(
             }
         }
     }
-    // The faces of the candidate edges stay in the lists whatever their orientation.
+    // A candidate's rank face (its lowest face of non-zero orientation, [`coincident_rank`])
+    // stays in the lists when it is a negative one: the coincident-edge rule compares it.
     let back_faces = back_faces.map(|boundary| {
         kept.clear();
         kept.resize(orientation.len().div_ceil(64), 0);
         for &(e, _) in candidates {
-            for &f in topology.edge_faces(e as usize) {
+            let f = coincident_rank(orientation, topology, e);
+            if f != u32::MAX && orientation[f as usize] < 0 {
                 kept[f as usize / 64] |= 1 << (f % 64);
             }
         }

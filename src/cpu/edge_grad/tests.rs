@@ -211,7 +211,9 @@ fn same_bits_as_the_reference() {
     let n = single.positions().len() as u32;
     let doubled = crate::scene::mesh::Mesh::new(
         single.positions().iter().chain(single.positions()).copied().collect(),
-        single.triangles().iter().copied().chain(single.triangles().iter().map(|t| t.map(|v| v + n))).collect(),
+        // Interleaved, so that the faces of an edge and of its copy alternate in index order: a
+        // copy's rank face is then often a negative one below the other edge's positive face.
+        single.triangles().iter().flat_map(|&t| [t, t.map(|v| v + n)]).collect(),
     )
     .unwrap();
     let (mut hidden, mut dropped_closed, mut dropped_open) = (0, 0, 0);
