@@ -96,15 +96,10 @@ pub fn backward_view(
     d_image: &[f32],
     scratch: &mut BackwardScratch,
 ) -> (Vec<Vec2>, BackwardStats) {
-    // The occluder lists may leave out the back faces away from the mesh's boundary.
-    let back_faces = bin::back_face_boundary(topology, &state.snapped, state.culled_triangles);
     let stats = edge_grad::edge_grad(
         &state.params,
-        state.grid,
         &state.screen,
-        &state.boxes,
         &state.orientation,
-        back_faces.as_ref(),
         topology,
         &state.candidates,
         d_image,

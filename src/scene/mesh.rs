@@ -109,6 +109,7 @@ pub struct Topology {
     vertex_edges: Vec<u32>,
     edge_face_forward: Vec<bool>,
     edge_wings: Vec<[u32; 2]>,
+    irregular_edges: Vec<u32>,
     boundary_offsets: Vec<u32>,
     boundary_vertices: Vec<u32>,
     patches: OnceLock<FacePatches>,
@@ -160,7 +161,8 @@ impl Topology {
                     _ => [u32::MAX; 2],
                 }
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let irregular_edges = (0..edges.len() as u32).filter(|&e| edge_wings[e as usize][0] == u32::MAX).collect();
         let (boundary_offsets, boundary_vertices) = boundary_components(vertex_count, &triangles);
         Ok(Topology {
             vertex_count,
@@ -172,6 +174,7 @@ impl Topology {
             vertex_edges,
             edge_face_forward,
             edge_wings,
+            irregular_edges,
             boundary_offsets,
             boundary_vertices,
             patches: OnceLock::new(),
@@ -189,6 +192,12 @@ impl Topology {
     /// `[u32::MAX; 2]` for every other edge.
     pub fn edge_wings(&self) -> &[[u32; 2]] {
         &self.edge_wings
+    }
+
+    /// The edges that [`Topology::edge_wings`] marks `[u32::MAX; 2]` (open boundary,
+    /// non-manifold or inconsistently oriented ones), in increasing order.
+    pub(crate) fn irregular_edges(&self) -> &[u32] {
+        &self.irregular_edges
     }
 
     /// Whether the triangles form an oriented closed surface: every undirected edge is run as

@@ -219,7 +219,7 @@ fn face_block(
 
 /// The weights `(w₊, w)` (see the module's notes) of edge `e`, whose faces are not two that run
 /// it opposite ways (those are in [`crossings`]' fast path), from its faces' signs.
-fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
+pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
     let range = topology.edge_face_offsets()[e] as usize..topology.edge_face_offsets()[e + 1] as usize;
     let faces = &topology.edge_face_list()[range.clone()];
     let forward = &topology.edge_face_forward()[range];

@@ -1,0 +1,426 @@
+//! Visibility from the view's contour: which parts of a candidate edge have an uncovered outside,
+//! found from the mesh edges that do not cancel in this view rather than from the triangles near
+//! the edge.
+//!
+//! Why this is exact. A point is covered when a triangle of non-zero float area holds it. Over
+//! the triangles, `N₊` (the positive ones holding a point) and `D = N₊ − N₋` are sums over the
+//! *contour*: the edges whose weights `w₊` (positive faces running the edge `a → b` minus those
+//! running it `b → a`) and `w` (the same over the faces of either sign) are not both zero, as in
+//! the forward's coverage from the contour (`cpu/coverage/contour.rs`), here with the float
+//! orientations of [`face_orientations`](crate::cpu::edges::face_orientations). A point is
+//! covered when `N₊ > 0` or `N₋ = N₊ − D > 0`. Along a candidate edge's outside these sums
+//! change only where the edge crosses a contour edge, by that edge's weights: so a candidate's
+//! visible parts follow from the sums at its start ([`ContourBands::trace`]: a ray cast against
+//! the contour edges of the start's band) and from its crossings with the contour edges near it.
+//! The work is in the contour's edges (a few thousand of the bunny's 104k edges at 64²), not in
+//! the triangles.
+//!
+//! Degenerate positions (a vertex on the edge's line, the start on another edge, a contour edge
+//! through an end point) are decided as for the point `va + δ·d + ε·outward` with
+//! `0 < ε ≪ δ ≪ 1`: every sign test looks at the exact term first and then at the coefficients
+//! of `δ` and `ε`, so every decision has one answer. A contour edge lying on the candidate's line
+//! with a face on the candidate's inside takes the stretch it spans from the candidate when that
+//! face ranks first ([`coincident_rank`](super::coincident_rank)): the rule of coincident edges
+//! that the WGSL stage applies triangle by triangle.
+//!
+//! The signs are those of f64 expressions in differences of the f32 screen positions, the same
+//! expressions as the triangle tests of the WGSL stage; the crossings' parameters are rounded
+//! quotients, so the visible intervals' ends can differ from the triangle tests' in their last
+//! bits (a relative 1e-16, far below the f32 gradient slots' precision).
+
+use glam::DVec2;
+
+use super::floor;
+use crate::cpu::coverage::contour::edge_weights;
+use crate::cpu::edges::edge_side;
+use crate::mirror::ScreenVertex;
+use crate::reference::closed_form::segment_weights;
+use crate::scene::mesh::Topology;
+
+/// One edge of the view's contour.
+#[derive(Clone, Copy, Debug)]
+struct ContourEdge {
+    /// End points, in the topology's order `[a, b]`.
+    a: DVec2,
+    b: DVec2,
+    /// Its box.
+    lo: DVec2,
+    hi: DVec2,
+    /// `w₊` and `w` for the direction `a → b`.
+    positive: i32,
+    net: i32,
+    /// The mesh edge.
+    edge: u32,
+    /// The first band that lists it.
+    first_band: u32,
+}
+
+/// Bands of the image whose height is at most this many pixels and at least
+/// [`MIN_BAND`]: about the contour edges' mean height.
+const MAX_BAND: f64 = 64.0;
+
+/// The smallest band height in pixels.
+const MIN_BAND: f64 = 1.0 / 256.0;
+
+/// Most bands.
+const MAX_BANDS: f64 = 65536.0;
+
+/// The view's contour edges, listed by horizontal bands of the image: a band lists every contour
+/// edge whose y range meets it (the first band holds also those above the image, the last those
+/// below it). Built once per view ([`ContourBands::build`]), read by every candidate edge.
+#[derive(Clone, Debug, Default)]
+pub struct ContourBands {
+    /// The contour edges, once each.
+    edges: Vec<ContourEdge>,
+    /// The band lists, one after the other.
+    entries: Vec<ContourEdge>,
+    /// `offsets[k]..offsets[k + 1]` indexes `entries` for band `k`, sorted by `lo.x`.
+    offsets: Vec<u32>,
+    /// The widest box of each band (`hi.x − lo.x`, rounded up a little): an entry whose `lo.x`
+    /// is further left than that from a point ends left of it.
+    widths: Vec<f64>,
+    /// Bands per pixel (a power of two, so `y · per_pixel` is exact).
+    per_pixel: f64,
+    /// Number of bands.
+    bands: u32,
+}
+
+impl ContourBands {
+    /// Lists the contour: the `candidates` (from the `edges` stage) and the other edges with
+    /// non-zero weights (edges with faces on both sides whose faces do not cancel: only where
+    /// the topology is not two faces running an edge opposite ways).
+    pub fn build(
+        &mut self,
+        screen: &[ScreenVertex],
+        orientation: &[i8],
+        topology: &Topology,
+        candidates: &[(u32, i32)],
+        image_height: u32,
+    ) {
+        let edges = topology.edges();
+        let position = |v: u32| {
+            let p = screen[v as usize].position;
+            DVec2::new(p[0] as f64, p[1] as f64)
+        };
+        let weights = |e: u32| match topology.edge_wings()[e as usize] {
+            [f, g] if f != u32::MAX => {
+                let (f, g) = (orientation[f as usize] as i32, orientation[g as usize] as i32);
+                ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32)
+            }
+            _ => edge_weights(topology, orientation, e as usize),
+        };
+        self.edges.clear();
+        let mut push = |e: u32, (positive, net): (i32, i32)| {
+            let [a, b] = edges[e as usize].map(position);
+            let (lo, hi) = (a.min(b), a.max(b));
+            self.edges.push(ContourEdge { a, b, lo, hi, positive, net, edge: e, first_band: 0 });
+        };
+        for &(e, _) in candidates {
+            push(e, weights(e));
+        }
+        for &e in topology.irregular_edges() {
+            if edge_side(orientation, topology, e as usize) == 0 {
+                let w = edge_weights(topology, orientation, e as usize);
+                if w != (0, 0) {
+                    push(e, w);
+                }
+            }
+        }
+        // Bands about one mean edge height high: an edge then meets one or two bands, and a
+        // band holds about as many edges as the contour crosses one image row.
+        let extent: f64 = self.edges.iter().map(|c| (c.hi.y - c.lo.y).min(MAX_BAND)).sum();
+        let mean = if self.edges.is_empty() { MAX_BAND } else { extent / self.edges.len() as f64 };
+        let mut height = mean.clamp(MIN_BAND, MAX_BAND);
+        height = 2f64.powi(height.log2().ceil() as i32);
+        while image_height as f64 / height > MAX_BANDS {
+            height *= 2.0;
+        }
+        self.per_pixel = 1.0 / height;
+        self.bands = ((image_height as f64 * self.per_pixel).ceil() as u32).max(1);
+        self.offsets.clear();
+        self.offsets.resize(self.bands as usize + 1, 0);
+        for c in &mut self.edges {
+            c.first_band = band_of(self.per_pixel, self.bands, c.lo.y);
+            let last = band_of(self.per_pixel, self.bands, c.hi.y);
+            for k in c.first_band..=last {
+                self.offsets[k as usize + 1] += 1;
+            }
+        }
+        for k in 0..self.bands as usize {
+            self.offsets[k + 1] += self.offsets[k];
+        }
+        let total = self.offsets[self.bands as usize] as usize;
+        self.entries.clear();
+        self.entries.resize(total, self.edges.first().copied().unwrap_or(EMPTY));
+        let mut next = self.offsets.clone();
+        self.widths.clear();
+        self.widths.resize(self.bands as usize, 0.0);
+        for c in &self.edges {
+            for k in c.first_band..=band_of(self.per_pixel, self.bands, c.hi.y) {
+                self.entries[next[k as usize] as usize] = *c;
+                next[k as usize] += 1;
+                self.widths[k as usize] = self.widths[k as usize].max(c.hi.x - c.lo.x);
+            }
+        }
+        for k in 0..self.bands as usize {
+            let list = &mut self.entries[self.offsets[k] as usize..self.offsets[k + 1] as usize];
+            list.sort_unstable_by(|x, y| x.lo.x.total_cmp(&y.lo.x));
+            // Rounded up, so that `lo.x < x − width` leaves `hi.x < x` whatever the roundings.
+            self.widths[k] = self.widths[k] * (1.0 + 1e-9) + 1e-300;
+        }
+    }
+
+    /// Number of contour edges listed.
+    pub fn contour_edges(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// The band holding height `y`.
+    fn band(&self, y: f64) -> u32 {
+        band_of(self.per_pixel, self.bands, y)
+    }
+
+    /// The band list `k` and the index of its first entry whose box may reach `x` or further
+    /// right (every entry before it ends left of `x`).
+    fn list(&self, k: u32, x: f64) -> (&[ContourEdge], usize) {
+        let list = &self.entries[self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize];
+        let bound = x - self.widths[k as usize];
+        let bound = bound - 1e-12 * bound.abs();
+        (list, list.partition_point(|c| c.lo.x < bound))
+    }
+
+    /// What the visible parts of candidate edge `e` (`va → vb`, outward normal `outward`) follow
+    /// from, into `out`: the sums `(N₊, D)` just outside its start, each crossing with a contour
+    /// edge (its parameter and the sums after it, in order), and the stretches that coincident
+    /// edges ranking before `rank` take from it.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn trace(
+        &self,
+        screen: &[ScreenVertex],
+        orientation: &[i8],
+        topology: &Topology,
+        e: u32,
+        (va, vb, outward): (DVec2, DVec2, DVec2),
+        rank: u32,
+        out: &mut EdgeContour,
+    ) {
+        let d = vb - va;
+        let (lo, hi) = (va.min(vb), va.max(vb));
+        let (first, last, start_band) = (self.band(lo.y), self.band(hi.y), self.band(va.y));
+        out.crossings.clear();
+        out.yielded.clear();
+        for k in first..=last {
+            let (list, reach) = self.list(k, lo.x);
+            let end = list.partition_point(|c| c.lo.x <= hi.x);
+            for c in &list[reach.min(end)..end] {
+                // An edge listed in several of these bands is tested in the first one.
+                if c.first_band.max(first) != k || c.hi.x < lo.x || c.hi.y < lo.y || c.lo.y > hi.y {
+                    continue;
+                }
+                let (ha, hb) = ((c.a - va).dot(outward), (c.b - va).dot(outward));
+                if (ha > 0.0) != (hb > 0.0) {
+                    // It crosses the line just outside the edge (an end on the edge's line
+                    // counts as inside); where, from the two ends' sides of its own line.
+                    let u = c.b - c.a;
+                    let (c0, c1) = (cross(u, c.a - va), cross(u, c.a - vb));
+                    if (c0 > 0.0 && c1 < 0.0) || (c0 < 0.0 && c1 > 0.0) {
+                        let dir = if c0 > 0.0 { 1 } else { -1 };
+                        out.crossings.push((c0 / (c0 - c1), dir * c.positive, dir * c.net));
+                    }
+                } else if ha == 0.0 && hb == 0.0 && c.edge != e {
+                    if let Some(stretch) = yielded_stretch(screen, orientation, topology, c, (va, d, outward), rank) {
+                        out.yielded.push(stretch);
+                    }
+                }
+            }
+        }
+        // The sums at the start: a ray cast to the left or to the right of it, whichever meets
+        // fewer entries of its band.
+        let (list, reach) = self.list(start_band, va.x);
+        let left = list.partition_point(|c| c.lo.x <= va.x);
+        let (mut positive, mut net) = (0, 0);
+        if left <= list.len() - reach {
+            for c in &list[..left] {
+                let chi = ray_crossing(c, va, d, outward, Ray::Left);
+                positive -= chi * c.positive;
+                net -= chi * c.net;
+            }
+        } else {
+            for c in &list[reach..] {
+                let chi = ray_crossing(c, va, d, outward, Ray::Right);
+                positive += chi * c.positive;
+                net += chi * c.net;
+            }
+        }
+        out.start = (positive, net);
+        out.crossings.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        let (mut p, mut n) = out.start;
+        for x in &mut out.crossings {
+            p += x.1;
+            n += x.2;
+            (x.1, x.2) = (p, n);
+        }
+    }
+}
+
+/// A band list entry that is never read (the fill value of an empty list).
+const EMPTY: ContourEdge = ContourEdge {
+    a: DVec2::ZERO,
+    b: DVec2::ZERO,
+    lo: DVec2::ZERO,
+    hi: DVec2::ZERO,
+    positive: 0,
+    net: 0,
+    edge: u32::MAX,
+    first_band: 0,
+};
+
+/// The band of `bands` (`per_pixel` per pixel) holding height `y`, the first for every `y`
+/// above the image and the last for every one below it. Monotonic in `y`.
+fn band_of(per_pixel: f64, bands: u32, y: f64) -> u32 {
+    floor(y * per_pixel).clamp(0.0, (bands - 1) as f64) as u32
+}
+
+/// `u.x·v.y − u.y·v.x`.
+#[inline]
+fn cross(u: DVec2, v: DVec2) -> f64 {
+    u.x * v.y - u.y * v.x
+}
+
+/// The sign of `x + δ·y + ε·z` for `0 < ε ≪ δ ≪ 1`.
+#[inline]
+fn sign3(x: f64, y: f64, z: f64) -> i32 {
+    let v = if x != 0.0 {
+        x
+    } else if y != 0.0 {
+        y
+    } else {
+        z
+    };
+    (v > 0.0) as i32 - (v < 0.0) as i32
+}
+
+/// Which way a ray from the start runs ([`ray_crossing`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Ray {
+    Left,
+    Right,
+}
+
+/// The crossing count of contour edge `c` with the ray from `p = va + δ·d + ε·n` along its row.
+/// To the right, `χ(c, p)`: `+1` when `c` runs downwards over `p`'s height (`a.y ≤ p.y < b.y`)
+/// with `p` strictly left of it, `−1` when it runs upwards (`b.y ≤ p.y < a.y`) with `p` strictly
+/// left of it, else 0; then `N = Σ w·χ` (the module's sums, as in the forward). To the left,
+/// `χ′(c, p)`, the same with `p` strictly right of `c`: over a closed chain `Σ w·(χ + χ′) = 0`
+/// (each crossing of `p`'s row lies on one side of `p`), so `N = −Σ w·χ′`.
+#[inline]
+fn ray_crossing(c: &ContourEdge, va: DVec2, d: DVec2, n: DVec2, ray: Ray) -> i32 {
+    let at_or_below = |y: f64| sign3(va.y - y, d.y, n.y) > 0;
+    let (a_le, b_le) = (at_or_below(c.a.y), at_or_below(c.b.y));
+    if a_le == b_le {
+        return 0;
+    }
+    let u = c.b - c.a;
+    // > 0: p lies left of a downward edge, right of an upward one.
+    let side = sign3(cross(u, va - c.a), cross(u, d), cross(u, n));
+    let wanted = if a_le == (ray == Ray::Right) { side > 0 } else { side < 0 };
+    if a_le {
+        wanted as i32
+    } else {
+        -(wanted as i32)
+    }
+}
+
+/// The stretch `[t(a), t(b)]` of the candidate `va + t·d` that contour edge `c`, lying on its
+/// line, takes from it: when a face of `c` of non-zero orientation lies on the candidate's inside
+/// and ranks before the candidate (`face < rank`). Faces on the outside cover the stretch
+/// anyway (the sums count them).
+fn yielded_stretch(
+    screen: &[ScreenVertex],
+    orientation: &[i8],
+    topology: &Topology,
+    c: &ContourEdge,
+    (va, d, outward): (DVec2, DVec2, DVec2),
+    rank: u32,
+) -> Option<(f64, f64)> {
+    let [a, b] = topology.edges()[c.edge as usize];
+    let takes = topology.edge_faces(c.edge as usize).iter().any(|&f| {
+        if f >= rank || orientation[f as usize] == 0 {
+            return false;
+        }
+        let third = topology.triangles()[f as usize].into_iter().find(|&v| v != a && v != b);
+        third.is_some_and(|v| {
+            let p = screen[v as usize].position;
+            (DVec2::new(p[0] as f64, p[1] as f64) - va).dot(outward) < 0.0
+        })
+    });
+    if !takes {
+        return None;
+    }
+    let dd = d.dot(d);
+    let (ta, tb) = ((c.a - va).dot(d) / dd, (c.b - va).dot(d) / dd);
+    Some((ta.min(tb), ta.max(tb)))
+}
+
+/// A candidate edge's contour, as [`ContourBands::trace`] finds it, and the buffers of its
+/// segments' sweeps.
+#[derive(Clone, Debug, Default)]
+pub(super) struct EdgeContour {
+    /// `(N₊, D)` just outside the start.
+    start: (i32, i32),
+    /// Each crossing's parameter and `(N₊, D)` just after it, in order.
+    crossings: Vec<(f64, i32, i32)>,
+    /// Stretches taken by coincident edges ranking first.
+    yielded: Vec<(f64, f64)>,
+    /// The covered intervals of one segment.
+    intervals: Vec<(f64, f64)>,
+}
+
+/// Whether sums `(N₊, D)` say covered: `N₊ > 0` or `N₋ = N₊ − D > 0`.
+#[inline]
+fn covered((positive, net): (i32, i32)) -> bool {
+    positive > 0 || positive - net > 0
+}
+
+impl EdgeContour {
+    /// Endpoint weights `[∫(1 − s), ∫s]` over the visible part of the parameter interval `c`:
+    /// where the sums say uncovered and no coincident edge ranking first takes the stretch.
+    pub(super) fn visible_weights(&mut self, c: (f64, f64)) -> (f64, f64) {
+        let k = self.crossings.partition_point(|x| x.0 <= c.0);
+        let mut state = if k == 0 { self.start } else { (self.crossings[k - 1].1, self.crossings[k - 1].2) };
+        let intervals = &mut self.intervals;
+        intervals.clear();
+        let mut open = covered(state).then_some(c.0);
+        for &(t, p, n) in &self.crossings[k..] {
+            if t >= c.1 {
+                break;
+            }
+            state = (p, n);
+            match (open, covered(state)) {
+                (None, true) => open = Some(t),
+                (Some(lo), false) => {
+                    intervals.push((lo, t));
+                    open = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(lo) = open {
+            intervals.push((lo, c.1));
+        }
+        if !self.yielded.is_empty() {
+            intervals.extend(self.yielded.iter().map(|&(lo, hi)| (lo.max(c.0), hi.min(c.1))).filter(|x| x.1 > x.0));
+            intervals.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
+        }
+        let (mut visible_a, mut visible_b, mut cursor) = (0.0, 0.0, c.0);
+        for &(lo, hi) in intervals.iter().chain(std::iter::once(&(c.1, c.1))) {
+            if lo > cursor {
+                let [ka, kb] = segment_weights(cursor, lo);
+                visible_a += ka;
+                visible_b += kb;
+            }
+            cursor = cursor.max(hi);
+        }
+        (visible_a, visible_b)
+    }
+}
