@@ -72,6 +72,8 @@ const MAX_BANDS: f64 = 65536.0;
 pub struct ContourBands {
     /// The contour edges, once each.
     edges: Vec<ContourEdge>,
+    /// Their indices by increasing `lo.x`.
+    order: Vec<u32>,
     /// The band lists, one after the other.
     entries: Vec<ContourEdge>,
     /// `offsets[k]..offsets[k + 1]` indexes `entries` for band `k`, sorted by `lo.x`.
@@ -155,18 +157,22 @@ impl ContourBands {
         let mut next = self.offsets.clone();
         self.widths.clear();
         self.widths.resize(self.bands as usize, 0.0);
-        for c in &self.edges {
+        // Filled in the order of `lo.x`, so that every band list is sorted by it.
+        self.order.clear();
+        self.order.extend(0..self.edges.len() as u32);
+        let edges = &self.edges;
+        self.order.sort_unstable_by(|&i, &j| edges[i as usize].lo.x.total_cmp(&edges[j as usize].lo.x));
+        for &i in &self.order {
+            let c = &self.edges[i as usize];
             for k in c.first_band..=band_of(self.per_pixel, self.bands, c.hi.y) {
                 self.entries[next[k as usize] as usize] = *c;
                 next[k as usize] += 1;
                 self.widths[k as usize] = self.widths[k as usize].max(c.hi.x - c.lo.x);
             }
         }
-        for k in 0..self.bands as usize {
-            let list = &mut self.entries[self.offsets[k] as usize..self.offsets[k + 1] as usize];
-            list.sort_unstable_by(|x, y| x.lo.x.total_cmp(&y.lo.x));
+        for width in &mut self.widths {
             // Rounded up, so that `lo.x < x − width` leaves `hi.x < x` whatever the roundings.
-            self.widths[k] = self.widths[k] * (1.0 + 1e-9) + 1e-300;
+            *width = *width * (1.0 + 1e-9) + 1e-300;
         }
     }
 
