@@ -17,10 +17,8 @@ pub struct ViewState {
     pub screen: Vec<ScreenVertex>,
     /// Projected vertices snapped to the fixed-point grid.
     pub snapped: Vec<[i32; 2]>,
-    /// The grid of the backward's occluder lists ([`bin::CellGrid::for_extent`]).
-    pub grid: bin::CellGrid,
     /// Every triangle's snapped bounding box ([`bin::snapped_boxes`]), written by the coverage
-    /// pass, for the backward's occluder lists.
+    /// pass.
     pub boxes: Vec<[i32; 4]>,
     /// Candidate edges `(edge, side)` from the `edges` stage, in edge order.
     pub candidates: Vec<(u32, i32)>,
@@ -73,7 +71,6 @@ pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &T
         },
     );
     params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
-    state.grid = bin::CellGrid::for_extent(&params, summary.extent_sum, summary.counted);
     state.params = params;
     state.culled_triangles = summary.culled;
     image
@@ -83,7 +80,7 @@ pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &T
 /// a loop of steps allocates only the gradients it returns.
 #[derive(Clone, Debug, Default)]
 pub struct BackwardScratch {
-    /// The `edge_grad` stage's walk, occluder lists and scans.
+    /// The `edge_grad` stage's contour bands and per-task buffers.
     edge_grad: edge_grad::EdgeGradScratch,
     /// One gradient slot per candidate edge.
     slots: Vec<EdgeGrad>,

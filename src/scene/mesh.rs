@@ -1,10 +1,8 @@
 //! Triangle meshes and the per-topology data the renderer reuses across frames.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::Vec3;
-
-use super::patches::FacePatches;
 
 use crate::{Error, Result};
 
@@ -93,8 +91,7 @@ fn check_finite(positions: &[Vec3]) -> Result<()> {
 /// - the triangles;
 /// - the undirected edges `[a, b]` (`a < b`), each with its adjacent faces (CSR `edge_faces`);
 /// - a static vertex → incident edges CSR (`vertex_edges`), which the `gather` stage walks to sum
-///   per-edge gradient slots into per-vertex gradients in a fixed order (deterministic, atomic-free);
-/// - the faces in small connected patches ([`Topology::face_patches`], built when first asked for).
+///   per-edge gradient slots into per-vertex gradients in a fixed order (deterministic, atomic-free).
 ///
 /// Triangles that repeat an index (zero-length edges) are kept for coverage, which is zero for them,
 /// but contribute no edges.
@@ -112,7 +109,6 @@ pub struct Topology {
     irregular_edges: Vec<u32>,
     boundary_offsets: Vec<u32>,
     boundary_vertices: Vec<u32>,
-    patches: OnceLock<FacePatches>,
 }
 
 impl Topology {
@@ -177,7 +173,6 @@ impl Topology {
             irregular_edges,
             boundary_offsets,
             boundary_vertices,
-            patches: OnceLock::new(),
         })
     }
 
@@ -280,12 +275,6 @@ impl Topology {
     /// Edges incident to vertex `v`.
     pub fn vertex_edges(&self, v: usize) -> &[u32] {
         &self.vertex_edges[self.vertex_edge_offsets[v] as usize..self.vertex_edge_offsets[v + 1] as usize]
-    }
-
-    /// The faces grouped into small connected patches ([`FacePatches::new`]), built on the first
-    /// call (the CPU backward's first) and kept.
-    pub fn face_patches(&self) -> &FacePatches {
-        self.patches.get_or_init(|| FacePatches::new(self))
     }
 }
 

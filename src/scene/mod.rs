@@ -4,5 +4,4 @@
 pub mod camera;
 pub mod image;
 pub mod mesh;
-pub mod patches;
 pub mod shapes;

@@ -23,10 +23,6 @@ use crate::scene::mesh::Topology;
 /// bit. A closed, consistently oriented mesh (no boundary) needs no box: about half of its
 /// triangles (the back faces, whichever way the camera looks) are skipped. The identity needs
 /// every triangle in the sum, so there is no skip when a vertex is clipped.
-///
-/// The backward asks the same question of the float geometry (is a point covered by any
-/// triangle?) and uses these boxes, with a margin for snapping, to leave back faces out of its
-/// occluder lists ([`BackFaces`](crate::cpu::bin::BackFaces)).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BackFaceSkip {
     /// The boxes; merged into at most [`BackFaceSkip::MAX_BOXES`].
@@ -46,13 +42,6 @@ impl BackFaceSkip {
         if snapped.contains(&INVALID_SNAPPED_VERTEX) {
             return None;
         }
-        Some(Self::of_boundary(topology, snapped))
-    }
-
-    /// The boxes of `topology`'s oriented boundary with these snapped vertices, which must all be
-    /// valid on the boundary (as they are when no triangle has a clipped vertex). The caller
-    /// answers for the rest of the identity: every triangle in the sum.
-    pub fn of_boundary(topology: &Topology, snapped: &[[i32; 2]]) -> BackFaceSkip {
         let components = topology.boundary_components();
         let count = components.len();
         let kept = count.min(Self::MAX_BOXES);
@@ -67,12 +56,12 @@ impl BackFaceSkip {
         let union = boxes.iter().fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |u, b| {
             [u[0].min(b[0]), u[1].min(b[1]), u[2].max(b[2]), u[3].max(b[3])]
         });
-        BackFaceSkip { boxes, union }
+        Some(BackFaceSkip { boxes, union })
     }
 
     /// Whether a negative triangle with this (closed) box may be skipped.
     #[inline]
-    pub(crate) fn skips(&self, b: [i32; 4]) -> bool {
+    pub(super) fn skips(&self, b: [i32; 4]) -> bool {
         let misses = |q: &[i32; 4]| b[0] > q[2] || b[2] < q[0] || b[1] > q[3] || b[3] < q[1];
         misses(&self.union) || self.boxes.iter().all(misses)
     }

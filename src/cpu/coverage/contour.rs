@@ -72,7 +72,7 @@ struct Crossing {
 /// ([`draw_triangles`](super::draw_triangles)). Reads the snapped vertices and the topology;
 /// writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
 /// snapped box into `boxes` (as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes
-/// them; the backward bins from them without reading the vertices again), and returns the
+/// them), and returns the
 /// summary the `bin` stage's tile size is chosen from. `scratch` keeps the pass's buffers from
 /// call to call.
 pub fn coverage(

@@ -10,7 +10,7 @@
 //! orientations of [`face_orientations`](crate::cpu::edges::face_orientations). A point is
 //! covered when `N₊ > 0` or `N₋ = N₊ − D > 0`. Along a candidate edge's outside these sums
 //! change only where the edge crosses a contour edge, by that edge's weights: so a candidate's
-//! visible parts follow from the sums at its start ([`ContourBands::trace`]: a ray cast against
+//! visible parts follow from the sums at its start (`ContourBands::trace`: a ray cast against
 //! the contour edges of the start's band) and from its crossings with the contour edges near it.
 //! The work is in the contour's edges (a few thousand of the bunny's 104k edges at 64²), not in
 //! the triangles.
@@ -20,7 +20,7 @@
 //! `0 < ε ≪ δ ≪ 1`: every sign test looks at the exact term first and then at the coefficients
 //! of `δ` and `ε`, so every decision has one answer. A contour edge lying on the candidate's line
 //! with a face on the candidate's inside takes the stretch it spans from the candidate when that
-//! face ranks first ([`coincident_rank`](super::coincident_rank)): the rule of coincident edges
+//! face ranks first (`coincident_rank`): the rule of coincident edges
 //! that the WGSL stage applies triangle by triangle.
 //!
 //! The signs are those of f64 expressions in differences of the f32 screen positions, the same
