@@ -17,9 +17,6 @@ pub struct ViewState {
     pub screen: Vec<ScreenVertex>,
     /// Projected vertices snapped to the fixed-point grid.
     pub snapped: Vec<[i32; 2]>,
-    /// Every triangle's snapped bounding box ([`bin::snapped_boxes`]), written by the coverage
-    /// pass.
-    pub boxes: Vec<[i32; 4]>,
     /// Candidate edges `(edge, side)` from the `edges` stage, in edge order.
     pub candidates: Vec<(u32, i32)>,
     /// Triangles culled because a vertex was clipped.
@@ -51,16 +48,15 @@ pub fn forward_view(
 /// allocated but the returned image), and returns the image.
 pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &Topology) -> Vec<f32> {
     let triangles = topology.triangles();
-    let ViewState { screen, snapped, boxes, candidates, masks, orientation, contour, .. } = state;
-    // Every box and mask word is written by the coverage pass: resizing keeps the old values
-    // without clearing them.
-    boxes.resize(triangles.len(), [0; 4]);
+    let ViewState { screen, snapped, candidates, masks, orientation, contour, .. } = state;
+    // Every mask word is written by the coverage pass: resizing keeps the old values without
+    // clearing them.
     masks.resize(params.pixel_count() * params.words_per_pixel as usize, 0);
     orientation.resize(triangles.len(), 0);
     // Coverage and the edge classification are independent: run them side by side.
     let ((summary, image), ()) = rayon::join(
         || {
-            let summary = coverage::coverage(&params, snapped, topology, boxes, masks, contour);
+            let summary = coverage::coverage(&params, snapped, topology, masks, contour);
             let mut image = vec![0.0; params.pixel_count()];
             resolve::resolve(&params, masks, &mut image);
             (summary, image)

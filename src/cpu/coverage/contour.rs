@@ -30,7 +30,6 @@ use rayon::prelude::*;
 use super::bands::Band;
 use super::setup::{TriangleSummary, BLOCK};
 use super::triangle::floor_div;
-use crate::cpu::bin::CULLED_BOX;
 use crate::mirror::{RasterParams, INVALID_SNAPPED};
 use crate::scene::mesh::Topology;
 
@@ -70,79 +69,53 @@ struct Crossing {
 /// `coverage`: writes every pixel's sample mask from the view's contour (see the module's notes
 /// for why the masks are exact), the same bits as drawing every triangle
 /// ([`draw_triangles`](super::draw_triangles)). Reads the snapped vertices and the topology;
-/// writes `masks` (`pixel_count · words_per_pixel` words) and, on the way, every triangle's
-/// snapped box into `boxes` (as [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) computes
-/// them), and returns the
-/// summary the `bin` stage's tile size is chosen from. `scratch` keeps the pass's buffers from
-/// call to call.
+/// writes `masks` (`pixel_count · words_per_pixel` words) and returns the summary the `bin`
+/// stage's tile size is chosen from. `scratch` keeps the pass's buffers from call to call.
 pub fn coverage(
     params: &RasterParams,
     snapped: &[[i32; 2]],
     topology: &Topology,
-    boxes: &mut [[i32; 4]],
     masks: &mut [u32],
     scratch: &mut ContourScratch,
 ) -> TriangleSummary {
     let triangles = topology.triangles();
     scratch.signs.resize(triangles.len(), 0);
     let limit = params.width.max(params.height) as i64 * params.units as i64;
-    let summary = face_signs(snapped, triangles, limit, &mut scratch.signs, boxes);
+    let summary = face_signs(snapped, triangles, limit, &mut scratch.signs);
     crossings(params, snapped, topology, &scratch.signs, &mut scratch.crossings);
     group_by_row(params, &scratch.crossings, &mut scratch.by_row, &mut scratch.row_offsets);
     sweep(params, &mut scratch.by_row, &scratch.row_offsets, masks, PARALLEL_CROSSINGS);
     summary
 }
 
-/// Every face's snapped box (into `boxes`, [`CULLED_BOX`] for a clipped one) and the sign of its
-/// snapped area (into `signs`), and the summary of [`coverage`]: one pass over
-/// the faces in blocks of eight, in parallel tasks for a large mesh.
-fn face_signs(
-    snapped: &[[i32; 2]],
-    triangles: &[[u32; 3]],
-    limit: i64,
-    signs: &mut [i8],
-    boxes: &mut [[i32; 4]],
-) -> TriangleSummary {
+/// Every face's sign of its snapped area (into `signs`; 0 for a clipped one), and the summary of
+/// [`coverage`]: one pass over the faces in blocks of eight, in parallel tasks for a large mesh.
+fn face_signs(snapped: &[[i32; 2]], triangles: &[[u32; 3]], limit: i64, signs: &mut [i8]) -> TriangleSummary {
     if triangles.len() <= FACES_PER_TASK {
-        return face_signs_of_chunk(snapped, triangles, limit, signs, boxes);
+        return face_signs_of_chunk(snapped, triangles, limit, signs);
     }
     triangles
         .par_chunks(FACES_PER_TASK)
         .zip(signs.par_chunks_mut(FACES_PER_TASK))
-        .zip(boxes.par_chunks_mut(FACES_PER_TASK))
-        .map(|((tris, signs), boxes)| face_signs_of_chunk(snapped, tris, limit, signs, boxes))
+        .map(|(tris, signs)| face_signs_of_chunk(snapped, tris, limit, signs))
         .reduce(TriangleSummary::default, |a, b| a + b)
 }
 
 /// [`face_signs`] of one task's faces.
-fn face_signs_of_chunk(
-    snapped: &[[i32; 2]],
-    triangles: &[[u32; 3]],
-    limit: i64,
-    signs: &mut [i8],
-    boxes: &mut [[i32; 4]],
-) -> TriangleSummary {
+fn face_signs_of_chunk(snapped: &[[i32; 2]], triangles: &[[u32; 3]], limit: i64, signs: &mut [i8]) -> TriangleSummary {
     let mut summary = TriangleSummary::default();
     let mut tris = triangles.chunks_exact(BLOCK);
     let mut sign_blocks = signs.chunks_exact_mut(BLOCK);
-    let mut box_blocks = boxes.chunks_exact_mut(BLOCK);
-    for ((t, s), b) in (&mut tris).zip(&mut sign_blocks).zip(&mut box_blocks) {
+    for (t, s) in (&mut tris).zip(&mut sign_blocks) {
         let t: &[[u32; 3]; BLOCK] = t.try_into().expect("a whole block");
-        face_block(snapped, t, limit as i32, s, b, &mut summary);
+        face_block(snapped, t, limit as i32, s, &mut summary);
     }
     let rest = tris.remainder();
     if let Some(&last) = rest.last() {
         // A short block: the missing lanes repeat the last face; only `rest.len()` are written.
         let mut padded = [last; BLOCK];
         padded[..rest.len()].copy_from_slice(rest);
-        face_block(
-            snapped,
-            &padded,
-            limit as i32,
-            sign_blocks.into_remainder(),
-            box_blocks.into_remainder(),
-            &mut summary,
-        );
+        face_block(snapped, &padded, limit as i32, sign_blocks.into_remainder(), &mut summary);
     }
     summary
 }
@@ -154,7 +127,6 @@ fn face_block(
     tris: &[[u32; 3]; BLOCK],
     limit: i32,
     signs: &mut [i8],
-    boxes: &mut [[i32; 4]],
     summary: &mut TriangleSummary,
 ) {
     let (mut x, mut y) = ([[0i32; BLOCK]; 3], [[0i32; BLOCK]; 3]);
@@ -164,7 +136,6 @@ fn face_block(
             (x[k][l], y[k][l]) = (p[0], p[1]);
         }
     }
-    let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
     let (mut extent, mut valid, mut wide) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
     let (mut ax, mut ay, mut bx, mut by) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
     for l in 0..BLOCK {
@@ -175,12 +146,8 @@ fn face_block(
             x[0][l].max(x[1][l]).max(x[2][l]),
             y[0][l].max(y[1][l]).max(y[2][l]),
         ];
+        // Masked to 0 for a clipped lane, branch-free: ok is 0 or 1, so −ok is 0 or −1.
         extent[l] = b[2].wrapping_sub(b[0]).max(b[3].wrapping_sub(b[1])).min(limit) & -ok;
-        // CULLED_BOX for a clipped lane, branch-free: ok is 0 or 1, so −ok is 0 or −1.
-        lo_x[l] = (b[0] & -ok) | (CULLED_BOX[0] & (ok - 1));
-        lo_y[l] = (b[1] & -ok) | (CULLED_BOX[1] & (ok - 1));
-        hi_x[l] = (b[2] & -ok) | (CULLED_BOX[2] & (ok - 1));
-        hi_y[l] = (b[3] & -ok) | (CULLED_BOX[3] & (ok - 1));
         valid[l] = ok;
         // Edge vectors (valid coordinates are within ±2^29, so these fit in i32; a clipped
         // lane's may wrap: it is masked out).
@@ -208,9 +175,6 @@ fn face_block(
     }
     let n = signs.len();
     signs.copy_from_slice(&sign[..n]);
-    for (l, out) in boxes.iter_mut().enumerate() {
-        *out = [lo_x[l], lo_y[l], hi_x[l], hi_y[l]];
-    }
     let counted: i32 = valid[..n].iter().sum();
     summary.culled += (n as i32 - counted) as u32;
     summary.counted += counted as u64;

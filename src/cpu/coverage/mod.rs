@@ -28,7 +28,8 @@ pub use triangle::SnappedTriangle;
 /// The masks of [`coverage`] by drawing every triangle, as the WGSL stage does (the forward no
 /// longer runs it; it is the reference the contour fill is tested against). Reads the snapped
 /// vertices and triangles of one view; writes `masks` (`pixel_count · words_per_pixel` words)
-/// and, on the way, every triangle's snapped bounding box into `boxes` (as [`coverage`] does).
+/// and, on the way, every triangle's snapped bounding box into `boxes` (as
+/// [`bin::snapped_boxes`](crate::cpu::bin::snapped_boxes) gives them).
 /// With `skip`, leaves out the negative triangles it allows (see [`BackFaceSkip`]; the masks are
 /// the same).
 ///

@@ -4,26 +4,22 @@ use super::*;
 use crate::cpu::coverage::{damage, draw_triangles, folded_placement, xorshift, BackFaceSkip};
 use crate::mirror::{ScreenVertex, COORD_LIMIT, INVALID_SNAPPED_VERTEX};
 
-/// The masks, boxes and summary of [`coverage`] and of drawing the triangles.
-fn both(
-    params: &RasterParams,
-    snapped: &[[i32; 2]],
-    topology: &Topology,
-) -> [(Vec<u32>, Vec<[i32; 4]>, TriangleSummary); 2] {
+/// The masks and summary of [`coverage`] and of drawing the triangles.
+fn both(params: &RasterParams, snapped: &[[i32; 2]], topology: &Topology) -> [(Vec<u32>, TriangleSummary); 2] {
     let n = topology.triangles().len();
     let words = params.pixel_count() * params.words_per_pixel as usize;
-    let (mut masks, mut boxes) = (vec![0u32; words], vec![[0; 4]; n]);
+    let mut masks = vec![0u32; words];
     let skip = BackFaceSkip::new(topology, snapped);
-    let drawn = draw_triangles(params, snapped, topology.triangles(), skip.as_ref(), &mut boxes, &mut masks);
-    let a = (masks, boxes, drawn);
+    let drawn = draw_triangles(params, snapped, topology.triangles(), skip.as_ref(), &mut vec![[0; 4]; n], &mut masks);
+    let a = (masks, drawn);
     // Stale contents in the outputs and the scratch must not matter.
-    let (mut masks, mut boxes) = (vec![u32::MAX; words], vec![[7; 4]; n]);
+    let mut masks = vec![u32::MAX; words];
     let mut scratch = ContourScratch::default();
     for _ in 0..2 {
-        coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
+        coverage(params, snapped, topology, &mut masks, &mut scratch);
     }
-    let filled = coverage(params, snapped, topology, &mut boxes, &mut masks, &mut scratch);
-    [a, (masks, boxes, filled)]
+    let filled = coverage(params, snapped, topology, &mut masks, &mut scratch);
+    [a, (masks, filled)]
 }
 
 /// `(g, s, t)` with `a·s + b·t = g = gcd(a, b)`.
@@ -36,8 +32,8 @@ fn extended_gcd(a: i64, b: i64) -> (i64, i64, i64) {
     }
 }
 
-/// Face signs and boxes against i64 areas and `bin::snapped_boxes`, for coordinates of every
-/// size (blocks on the f64 path, differences below 2^26, and on the i64 one above it),
+/// Face signs against i64 areas and the summary against the boxes of `bin::snapped_boxes`, for
+/// coordinates of every size (blocks on the f64 path, differences below 2^26, and on the i64 one above it),
 /// slivers of snapped area ±1 unit² whose two products are about 2^6, 2^46 or 2^54, clipped
 /// vertices, and every length of the last block.
 #[test]
@@ -72,9 +68,19 @@ fn face_signs_are_exact() {
             snapped.extend(v);
         }
         let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
-        let (mut signs, mut boxes) = (vec![9i8; n], vec![[5; 4]; n]);
-        face_signs(&snapped, &triangles, 1 << 20, &mut signs, &mut boxes);
-        assert_eq!(boxes, crate::cpu::bin::snapped_boxes(&snapped, &triangles), "n = {n}");
+        let mut signs = vec![9i8; n];
+        let limit = 1 << 20;
+        let summary = face_signs(&snapped, &triangles, limit, &mut signs);
+        let mut expected = TriangleSummary::default();
+        for b in crate::cpu::bin::snapped_boxes(&snapped, &triangles) {
+            if b == crate::cpu::bin::CULLED_BOX {
+                expected.culled += 1;
+            } else {
+                expected.counted += 1;
+                expected.extent_sum += ((b[2] - b[0]) as i64).max((b[3] - b[1]) as i64).min(limit) as u64;
+            }
+        }
+        assert_eq!(summary, expected, "n = {n}");
         for (k, t) in triangles.iter().enumerate() {
             let v = t.map(|i| snapped[i as usize]);
             let expected = if v.contains(&INVALID_SNAPPED_VERTEX) {
@@ -93,7 +99,7 @@ fn face_signs_are_exact() {
 }
 
 /// Closed meshes, meshes with holes, flipped faces and open patches, under random (folded)
-/// 2D placements with many exact ties on sample positions: the same masks, boxes and summary.
+/// 2D placements with many exact ties on sample positions: the same masks and summary.
 #[test]
 fn contour_fill_matches_drawing_on_meshes() {
     let mut rand = xorshift(0x5851_f42d_4c95_7f2d);
@@ -128,8 +134,7 @@ fn contour_fill_matches_drawing_on_meshes() {
             }
         }
         let [drawn, filled] = both(&params, &snapped, &topology);
-        assert_eq!(drawn.1, filled.1, "case {case}: boxes");
-        assert_eq!(drawn.2, filled.2, "case {case}: summary");
+        assert_eq!(drawn.1, filled.1, "case {case}: summary");
         assert_eq!(drawn.0, filled.0, "case {case}: masks");
         covered_some |= drawn.0.iter().any(|&m| m != 0) && drawn.0.contains(&0);
     }
@@ -193,8 +198,8 @@ fn contour_fill_matches_drawing_in_parallel() {
         assert_eq!(drawn, filled, "{res}² F={f}");
         // The rows halved down to single rows: the same masks.
         let mut scratch = ContourScratch::default();
-        let (mut boxes, mut masks) = (vec![[0; 4]; sphere.triangles().len()], vec![u32::MAX; drawn.0.len()]);
-        coverage(&params, &snapped, sphere.topology(), &mut boxes, &mut masks, &mut scratch);
+        let mut masks = vec![u32::MAX; drawn.0.len()];
+        coverage(&params, &snapped, sphere.topology(), &mut masks, &mut scratch);
         masks.fill(u32::MAX);
         sweep(&params, &mut scratch.by_row, &scratch.row_offsets, &mut masks, 1);
         assert_eq!(drawn.0, masks, "{res}² F={f}, rows in parallel halves");
