@@ -16,8 +16,7 @@ use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::reference::closed_form::clip_parameter;
 use crate::scene::mesh::Topology;
-pub use contour::ContourBands;
-use contour::EdgeContour;
+use contour::{ContourBands, EdgeContour};
 
 fn position(screen: &[ScreenVertex], v: u32) -> DVec2 {
     let p = screen[v as usize].position;
@@ -25,7 +24,8 @@ fn position(screen: &[ScreenVertex], v: u32) -> DVec2 {
 }
 
 /// `x.floor()`, inline: on x86-64's baseline (no SSE4.1) `f64::floor` and `f64::ceil` are calls
-/// into libm, about 1% of a pose fit's time from the walk and the cell ranges of this stage.
+/// into libm, about 1% of a pose fit's time from the walk of this stage (and the bands of
+/// [`contour`]).
 /// Exact (equal to `f64::floor`, up to the sign of a zero) for every `x`: below 2⁵² in magnitude through the
 /// integer conversion, otherwise (already an integer, or not finite) through `f64::floor`.
 #[inline]
@@ -164,7 +164,7 @@ pub struct EdgeGradScratch {
 /// The gradient slot of every candidate edge: walks the pixels it crosses, keeps the visible
 /// parts of its segments and applies the closed form. Where `∂L/∂I` is zero nothing is looked
 /// up; a candidate with segments finds its visible parts from the view's contour
-/// ([`ContourBands`]: the sums of covering triangles just outside its start, and its crossings
+/// ([`contour::ContourBands`]: the sums of covering triangles just outside its start, and its crossings
 /// with the contour edges near it) rather than from the triangles near it, which the WGSL stage
 /// scans. The covered points are the same, so are the visible intervals (their end points come
 /// from the crossing edge's line instead of a triangle's, which can move them by a rounding of

@@ -43,7 +43,7 @@ fn step_rejects_mismatched_targets() {
 }
 
 /// The CPU engine fills the buffers of the frames it rendered and that were dropped again, and
-/// those of its earlier backward passes (walks, occluder lists, slots): steps
+/// those of its earlier backward passes (contour bands, segments, crossings, slots): steps
 /// of other meshes, image sizes and view counts in one renderer give the bits of fresh
 /// renderers, and a frame kept alive across steps keeps its own state.
 #[test]

@@ -176,11 +176,6 @@ impl ContourBands {
         }
     }
 
-    /// Number of contour edges listed.
-    pub fn contour_edges(&self) -> usize {
-        self.edges.len()
-    }
-
     /// The band holding height `y`.
     fn band(&self, y: f64) -> u32 {
         band_of(self.per_pixel, self.bands, y)
