@@ -72,8 +72,8 @@ const MAX_BANDS: f64 = 65536.0;
 pub struct ContourBands {
     /// The contour edges, once each.
     edges: Vec<ContourEdge>,
-    /// Their indices by increasing `lo.x`.
-    order: Vec<u32>,
+    /// Their indices by increasing `lo.x` (below the order key of [`x_key`]).
+    order: Vec<u64>,
     /// The band lists, one after the other.
     entries: Vec<ContourEdge>,
     /// `offsets[k]..offsets[k + 1]` indexes `entries` for band `k`, sorted by `lo.x`.
@@ -159,11 +159,10 @@ impl ContourBands {
         self.widths.resize(self.bands as usize, 0.0);
         // Filled in the order of `lo.x`, so that every band list is sorted by it.
         self.order.clear();
-        self.order.extend(0..self.edges.len() as u32);
-        let edges = &self.edges;
-        self.order.sort_unstable_by(|&i, &j| edges[i as usize].lo.x.total_cmp(&edges[j as usize].lo.x));
-        for &i in &self.order {
-            let c = &self.edges[i as usize];
+        self.order.extend(self.edges.iter().enumerate().map(|(i, c)| (x_key(c.lo.x as f32) << 32) | i as u64));
+        self.order.sort_unstable();
+        for &key in &self.order {
+            let c = &self.edges[key as u32 as usize];
             for k in c.first_band..=band_of(self.per_pixel, self.bands, c.hi.y) {
                 self.entries[next[k as usize] as usize] = *c;
                 next[k as usize] += 1;
@@ -280,6 +279,14 @@ const EMPTY: ContourEdge = ContourEdge {
 /// above the image and the last for every one below it. Monotonic in `y`.
 fn band_of(per_pixel: f64, bands: u32, y: f64) -> u32 {
     floor(y * per_pixel).clamp(0.0, (bands - 1) as f64) as u32
+}
+
+/// A key whose unsigned order is the order of the f32 `x` (for every non-NaN `x`; `-0.0` before
+/// `0.0`, which the band searches treat alike).
+#[inline]
+fn x_key(x: f32) -> u64 {
+    let bits = x.to_bits();
+    (if bits >> 31 == 1 { !bits } else { bits | 1 << 31 }) as u64
 }
 
 /// `u.x·v.y − u.y·v.x`.
