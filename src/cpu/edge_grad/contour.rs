@@ -432,3 +432,19 @@ impl EdgeContour {
         (visible_a, visible_b)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`x_key`] orders f32 values as `<` does (and `-0.0` just before `0.0`).
+    #[test]
+    fn x_key_orders_as_the_floats() {
+        let mut values = vec![f32::NEG_INFINITY, -3.5e30, -2.0, -1.0, -1e-40, -0.0, 0.0, 1e-40, 0.5, 1.0, 7e20];
+        values.push(f32::MAX);
+        values.push(f32::INFINITY);
+        for pair in values.windows(2) {
+            assert!(x_key(pair[0]) < x_key(pair[1]), "{} {}", pair[0], pair[1]);
+        }
+    }
+}
