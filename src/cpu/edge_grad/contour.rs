@@ -2,7 +2,8 @@
 //! found from the mesh edges that do not cancel in this view rather than from the triangles near
 //! the edge.
 //!
-//! Why this is exact. A point is covered when a triangle of non-zero float area holds it. Over
+//! Why this is exact. A point is covered when a triangle of non-zero float area holds it (one
+//! with a clipped vertex holds nothing, as in the forward). Over
 //! the triangles, `N₊` (the positive ones holding a point) and `D = N₊ − N₋` are sums over the
 //! *contour*: the edges whose weights `w₊` (positive faces running the edge `a → b` minus those
 //! running it `b → a`) and `w` (the same over the faces of either sign) are not both zero, as in
@@ -23,10 +24,11 @@
 //! face ranks first (`coincident_rank`): the rule of coincident edges
 //! that the WGSL stage applies triangle by triangle.
 //!
-//! The signs are those of f64 expressions in differences of the f32 screen positions, the same
-//! expressions as the triangle tests of the WGSL stage; the crossings' parameters are rounded
-//! quotients, so the visible intervals' ends can differ from the triangle tests' in their last
-//! bits (a relative 1e-16, far below the f32 gradient slots' precision).
+//! The signs are those of f64 expressions in differences of the f32 screen positions, as in the
+//! triangle-by-triangle tests this replaced (kept as the reference of `edge_grad`'s tests; the
+//! WGSL stage evaluates them in float-float); the crossings' parameters are rounded quotients, so
+//! the visible intervals' ends can differ from the triangle tests' in their last bits (a
+//! relative 1e-16, far below the f32 gradient slots' precision).
 
 use glam::DVec2;
 
