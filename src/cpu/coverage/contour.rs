@@ -181,6 +181,15 @@ fn face_block(
     summary.extent_sum += extent[..n].iter().map(|&e| e as u64).sum::<u64>();
 }
 
+/// The weights `(w₊, w)` (see the module's notes) of an edge whose two faces run it opposite
+/// ways ([`Topology::edge_wings`]): `f`, the sign of the face running it `a → b`, and `g`, that of
+/// the face running it `b → a`.
+#[inline]
+pub(crate) fn wing_weights(f: i8, g: i8) -> (i32, i32) {
+    let (f, g) = (f as i32, g as i32);
+    ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32)
+}
+
 /// The weights `(w₊, w)` (see the module's notes) of edge `e`, whose faces are not two that run
 /// it opposite ways (those are in [`crossings`]' fast path), from its faces' signs.
 pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
@@ -219,8 +228,7 @@ fn crossings(
             if f == g {
                 continue;
             }
-            let (f, g) = (f as i32, g as i32);
-            ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32)
+            wing_weights(f, g)
         } else {
             match edge_weights(topology, signs, e) {
                 (0, 0) => continue,

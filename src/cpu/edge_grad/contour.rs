@@ -32,8 +32,8 @@
 
 use glam::DVec2;
 
-use super::floor;
-use crate::cpu::coverage::contour::edge_weights;
+use super::{floor, position};
+use crate::cpu::coverage::contour::{edge_weights, wing_weights};
 use crate::cpu::edges::edge_side;
 use crate::mirror::ScreenVertex;
 use crate::reference::closed_form::segment_weights;
@@ -102,20 +102,13 @@ impl ContourBands {
         image_height: u32,
     ) {
         let edges = topology.edges();
-        let position = |v: u32| {
-            let p = screen[v as usize].position;
-            DVec2::new(p[0] as f64, p[1] as f64)
-        };
         let weights = |e: u32| match topology.edge_wings()[e as usize] {
-            [f, g] if f != u32::MAX => {
-                let (f, g) = (orientation[f as usize] as i32, orientation[g as usize] as i32);
-                ((f > 0) as i32 - (g > 0) as i32, (f != 0) as i32 - (g != 0) as i32)
-            }
+            [f, g] if f != u32::MAX => wing_weights(orientation[f as usize], orientation[g as usize]),
             _ => edge_weights(topology, orientation, e as usize),
         };
         self.edges.clear();
         let mut push = |e: u32, (positive, net): (i32, i32)| {
-            let [a, b] = edges[e as usize].map(position);
+            let [a, b] = edges[e as usize].map(|v| position(screen, v));
             let (lo, hi) = (a.min(b), a.max(b));
             self.edges.push(ContourEdge { a, b, lo, hi, positive, net, edge: e, first_band: 0 });
         };
