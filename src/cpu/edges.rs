@@ -20,9 +20,10 @@ use crate::scene::mesh::Topology;
 /// for a face with a clipped vertex or zero area. f32 differences and their products are exact
 /// in f64, so the sign is exact. Reads the screen vertices; writes `orientation` (one per face).
 ///
-/// One sequential pass without a branch per face: the forward runs it beside the `coverage` pass
-/// (`rayon::join`), which keeps the other core busy, and split across tasks it cost more
-/// instructions than it saved time.
+/// The stage's definition (the tests' reference): the forward computes the same orientations in
+/// `coverage`'s pass over the faces
+/// ([`coverage_and_edges`](crate::cpu::coverage::coverage_and_edges)), which reads each face's
+/// vertex indices once for both stages.
 pub fn face_orientations(screen: &[ScreenVertex], triangles: &[[u32; 3]], orientation: &mut [i8]) {
     for (o, tri) in orientation.iter_mut().zip(triangles) {
         *o = face_orientation(screen, *tri);
@@ -79,9 +80,10 @@ fn side_of(orientation: &[i8], faces: &[u32], forward: &[bool]) -> i32 {
 /// `(edge, side)` in edge order into `candidates` (the WGSL stage writes a side per edge instead;
 /// the non-candidates are the edges left out here).
 ///
-/// One sequential pass (it runs beside the `coverage` pass, as [`face_orientations`] does) over
-/// the edges' two faces ([`Topology::edge_wings`]); only edges with another number of faces read
-/// their face lists.
+/// One pass over the edges' two faces ([`Topology::edge_wings`]); only edges with another number
+/// of faces read their face lists. The stage's definition (the tests' reference): the forward
+/// finds the same candidates in `coverage`'s pass over the edges
+/// ([`coverage_and_edges`](crate::cpu::coverage::coverage_and_edges)).
 pub fn edges(orientation: &[i8], topology: &Topology, candidates: &mut Vec<(u32, i32)>) {
     let (offsets, faces, forward) =
         (topology.edge_face_offsets(), topology.edge_face_list(), topology.edge_face_forward());

@@ -3,8 +3,10 @@
 //!
 //! Forward: [`project`](project::project) and [`snap`](project::snap) (one pass,
 //! [`project_and_snap`](project::project_and_snap), for 3D input) → [`coverage`](coverage::coverage)
-//! → [`resolve`](resolve::resolve), side by side with
-//! [`face_orientations`](edges::face_orientations) → [`edges`](edges::edges).
+//! → [`resolve`](resolve::resolve), with [`face_orientations`](edges::face_orientations) →
+//! [`edges`](edges::edges) computed in coverage's passes over the faces and the edges
+//! ([`coverage_and_edges`](coverage::coverage_and_edges): each face's vertex indices and each
+//! edge's faces are read once for both stages).
 //! Backward: [`edge_grad`](edge_grad::edge_grad) (which finds the visible parts of the silhouette
 //! segments from the view's contour, [`edge_grad::contour`], rather than from triangles binned
 //! near them) → [`gather`](gather::gather).

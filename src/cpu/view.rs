@@ -2,7 +2,7 @@
 
 use glam::Vec2;
 
-use super::{bin, coverage, edge_grad, edges, gather, resolve};
+use super::{bin, coverage, edge_grad, gather, resolve};
 use crate::engine::BackwardStats;
 use crate::mirror::{EdgeGrad, RasterParams, ScreenVertex};
 use crate::scene::mesh::Topology;
@@ -52,20 +52,12 @@ pub fn render_view(mut params: RasterParams, state: &mut ViewState, topology: &T
     // Every mask word is written by the coverage pass: resizing keeps the old values without
     // clearing them.
     masks.resize(params.pixel_count() * params.words_per_pixel as usize, 0);
+    // Coverage and the edge classification in the same two passes over the mesh.
     orientation.resize(triangles.len(), 0);
-    // Coverage and the edge classification are independent: run them side by side.
-    let ((summary, image), ()) = rayon::join(
-        || {
-            let summary = coverage::coverage(&params, snapped, topology, masks, contour);
-            let mut image = vec![0.0; params.pixel_count()];
-            resolve::resolve(&params, masks, &mut image);
-            (summary, image)
-        },
-        || {
-            edges::face_orientations(screen, triangles, orientation);
-            edges::edges(orientation, topology, candidates);
-        },
-    );
+    let edges = coverage::EdgesStage { screen, orientation, candidates };
+    let summary = coverage::coverage_and_edges(&params, snapped, topology, masks, contour, edges);
+    let mut image = vec![0.0; params.pixel_count()];
+    resolve::resolve(&params, masks, &mut image);
     params.set_tile_size(bin::tile_size(&params, summary.extent_sum, summary.counted));
     state.params = params;
     state.culled_triangles = summary.culled;

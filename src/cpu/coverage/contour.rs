@@ -30,11 +30,15 @@ use rayon::prelude::*;
 use super::bands::Band;
 use super::setup::{TriangleSummary, BLOCK};
 use super::triangle::floor_div;
-use crate::mirror::{RasterParams, INVALID_SNAPPED};
+use crate::cpu::edges::{edge_side, face_orientation};
+use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED};
 use crate::scene::mesh::Topology;
 
-/// Triangles per parallel task of [`face_signs`].
+/// Triangles per parallel task of the pass over the faces.
 const FACES_PER_TASK: usize = 16384;
+
+/// Edges from which the pass over the edges runs in two halves side by side.
+const PARALLEL_EDGES: usize = 32768;
 
 /// Crossings from which the sweep splits its rows into halves swept in parallel.
 const PARALLEL_CROSSINGS: usize = 16384;
@@ -44,8 +48,11 @@ const PARALLEL_CROSSINGS: usize = 16384;
 pub struct ContourScratch {
     /// The sign of every face's snapped area (0: a clipped vertex or zero area).
     signs: Vec<i8>,
-    /// Crossings in the order the edges produce them.
+    /// Crossings in the order the edges produce them (of the first half of the edges when the
+    /// edge pass is split in two).
     crossings: Vec<Crossing>,
+    /// The crossings and candidates of the second half of the edges, when the pass is split.
+    second_half: (Vec<Crossing>, Vec<(u32, i32)>),
     /// The same, grouped by sample row.
     by_row: Vec<Crossing>,
     /// `row_offsets[r]..row_offsets[r + 1]` indexes `by_row` for sample row `r`.
@@ -78,107 +85,201 @@ pub fn coverage(
     masks: &mut [u32],
     scratch: &mut ContourScratch,
 ) -> TriangleSummary {
+    let no_edges = EdgesStage { screen: &[], orientation: &mut [], candidates: &mut Vec::new() };
+    passes::<false>(params, snapped, topology, masks, scratch, no_edges)
+}
+
+/// The outputs of the `edges` stage ([`face_orientations`](crate::cpu::edges::face_orientations)
+/// and [`edges`](crate::cpu::edges::edges)) and the screen vertices they are computed from.
+pub struct EdgesStage<'a> {
+    /// The view's screen vertices.
+    pub screen: &'a [ScreenVertex],
+    /// One orientation per face (written).
+    pub orientation: &'a mut [i8],
+    /// The candidate edges `(edge, side)` in edge order (cleared, then written).
+    pub candidates: &'a mut Vec<(u32, i32)>,
+}
+
+/// [`coverage`] and the `edges` stage in the same two passes over the mesh, the forward's way:
+/// the pass over the faces computes each face's snapped sign and its float orientation
+/// ([`face_orientation`]) from one read of its vertex indices, and the pass over the edges finds
+/// each edge's crossings and whether it is a candidate from one read of its faces. The masks,
+/// the summary, the orientations and the candidates are the same as [`coverage`]'s and the
+/// `edges` stage's functions give (tested).
+pub fn coverage_and_edges(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    topology: &Topology,
+    masks: &mut [u32],
+    scratch: &mut ContourScratch,
+    edges: EdgesStage<'_>,
+) -> TriangleSummary {
+    passes::<true>(params, snapped, topology, masks, scratch, edges)
+}
+
+/// [`coverage`], and with `EDGES` the `edges` stage too ([`coverage_and_edges`]).
+fn passes<const EDGES: bool>(
+    params: &RasterParams,
+    snapped: &[[i32; 2]],
+    topology: &Topology,
+    masks: &mut [u32],
+    scratch: &mut ContourScratch,
+    edges: EdgesStage<'_>,
+) -> TriangleSummary {
     let triangles = topology.triangles();
     scratch.signs.resize(triangles.len(), 0);
     let limit = params.width.max(params.height) as i64 * params.units as i64;
-    let summary = face_signs(snapped, triangles, limit, &mut scratch.signs);
-    crossings(params, snapped, topology, &scratch.signs, &mut scratch.crossings);
-    group_by_row(params, &scratch.crossings, &mut scratch.by_row, &mut scratch.row_offsets);
+    let faces = FacePass { snapped, screen: edges.screen, limit: limit as i32 };
+    let summary = faces.run::<EDGES>(triangles, &mut scratch.signs, edges.orientation);
+    let grid = RowGrid::new(params);
+    let (first, second) = (&mut scratch.crossings, &mut scratch.second_half);
+    let edge_pass = EdgePass { grid, snapped, topology, signs: &scratch.signs, orientation: &*edges.orientation };
+    let count = topology.edges().len();
+    if count >= PARALLEL_EDGES {
+        let mid = count / 2;
+        rayon::join(
+            || edge_pass.run::<EDGES>(0..mid, first, edges.candidates),
+            || edge_pass.run::<EDGES>(mid..count, &mut second.0, &mut second.1),
+        );
+        edges.candidates.extend_from_slice(&second.1);
+    } else {
+        edge_pass.run::<EDGES>(0..count, first, edges.candidates);
+        second.0.clear();
+    }
+    group_by_row(
+        params,
+        [&scratch.crossings[..], &scratch.second_half.0[..]],
+        &mut scratch.by_row,
+        &mut scratch.row_offsets,
+    );
     sweep(params, &mut scratch.by_row, &scratch.row_offsets, masks, PARALLEL_CROSSINGS);
     summary
 }
 
-/// Every face's sign of its snapped area (into `signs`; 0 for a clipped one), and the summary of
-/// [`coverage`]: one pass over the faces in blocks of eight, in parallel tasks for a large mesh.
-fn face_signs(snapped: &[[i32; 2]], triangles: &[[u32; 3]], limit: i64, signs: &mut [i8]) -> TriangleSummary {
-    if triangles.len() <= FACES_PER_TASK {
-        return face_signs_of_chunk(snapped, triangles, limit, signs);
-    }
-    triangles
-        .par_chunks(FACES_PER_TASK)
-        .zip(signs.par_chunks_mut(FACES_PER_TASK))
-        .map(|(tris, signs)| face_signs_of_chunk(snapped, tris, limit, signs))
-        .reduce(TriangleSummary::default, |a, b| a + b)
-}
-
-/// [`face_signs`] of one task's faces.
-fn face_signs_of_chunk(snapped: &[[i32; 2]], triangles: &[[u32; 3]], limit: i64, signs: &mut [i8]) -> TriangleSummary {
-    let mut summary = TriangleSummary::default();
-    let mut tris = triangles.chunks_exact(BLOCK);
-    let mut sign_blocks = signs.chunks_exact_mut(BLOCK);
-    for (t, s) in (&mut tris).zip(&mut sign_blocks) {
-        let t: &[[u32; 3]; BLOCK] = t.try_into().expect("a whole block");
-        face_block(snapped, t, limit as i32, s, &mut summary);
-    }
-    let rest = tris.remainder();
-    if let Some(&last) = rest.last() {
-        // A short block: the missing lanes repeat the last face; only `rest.len()` are written.
-        let mut padded = [last; BLOCK];
-        padded[..rest.len()].copy_from_slice(rest);
-        face_block(snapped, &padded, limit as i32, sign_blocks.into_remainder(), &mut summary);
-    }
-    summary
-}
-
-/// One block of [`face_signs`]: lanes computed branch-free, the first `signs.len()` written.
-#[inline(always)]
-fn face_block(
-    snapped: &[[i32; 2]],
-    tris: &[[u32; 3]; BLOCK],
+/// The pass over the faces: every face's sign of its snapped area (0 for a clipped one) and, in
+/// [`coverage_and_edges`], its orientation; the summary of [`coverage`].
+struct FacePass<'a> {
+    snapped: &'a [[i32; 2]],
+    /// The screen vertices (read only for the orientations).
+    screen: &'a [ScreenVertex],
     limit: i32,
-    signs: &mut [i8],
-    summary: &mut TriangleSummary,
-) {
-    let (mut x, mut y) = ([[0i32; BLOCK]; 3], [[0i32; BLOCK]; 3]);
-    for (l, t) in tris.iter().enumerate() {
-        for k in 0..3 {
-            let p = snapped[t[k] as usize];
-            (x[k][l], y[k][l]) = (p[0], p[1]);
+}
+
+impl FacePass<'_> {
+    /// Writes `signs` (and with `ORIENT` `orientation`), one per face, in parallel tasks for a
+    /// large mesh, and returns the summary.
+    fn run<const ORIENT: bool>(
+        &self,
+        triangles: &[[u32; 3]],
+        signs: &mut [i8],
+        orientation: &mut [i8],
+    ) -> TriangleSummary {
+        if triangles.len() <= FACES_PER_TASK {
+            return self.chunk::<ORIENT>(triangles, signs, orientation);
+        }
+        let tasks = triangles.par_chunks(FACES_PER_TASK).zip(signs.par_chunks_mut(FACES_PER_TASK));
+        let sum = |a, b| a + b;
+        if ORIENT {
+            tasks
+                .zip(orientation.par_chunks_mut(FACES_PER_TASK))
+                .map(|((tris, signs), orientation)| self.chunk::<true>(tris, signs, orientation))
+                .reduce(TriangleSummary::default, sum)
+        } else {
+            tasks.map(|(tris, signs)| self.chunk::<false>(tris, signs, &mut [])).reduce(TriangleSummary::default, sum)
         }
     }
-    let (mut extent, mut valid, mut wide) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
-    let (mut ax, mut ay, mut bx, mut by) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
-    for l in 0..BLOCK {
-        let ok = !((x[0][l] == INVALID_SNAPPED) | (x[1][l] == INVALID_SNAPPED) | (x[2][l] == INVALID_SNAPPED)) as i32;
-        let b = [
-            x[0][l].min(x[1][l]).min(x[2][l]),
-            y[0][l].min(y[1][l]).min(y[2][l]),
-            x[0][l].max(x[1][l]).max(x[2][l]),
-            y[0][l].max(y[1][l]).max(y[2][l]),
-        ];
-        // Masked to 0 for a clipped lane, branch-free: ok is 0 or 1, so −ok is 0 or −1.
-        extent[l] = b[2].wrapping_sub(b[0]).max(b[3].wrapping_sub(b[1])).min(limit) & -ok;
-        valid[l] = ok;
-        // Edge vectors (valid coordinates are within ±2^29, so these fit in i32; a clipped
-        // lane's may wrap: it is masked out).
-        ax[l] = x[1][l].wrapping_sub(x[0][l]);
-        ay[l] = y[1][l].wrapping_sub(y[0][l]);
-        bx[l] = x[2][l].wrapping_sub(x[0][l]);
-        by[l] = y[2][l].wrapping_sub(y[0][l]);
-        // Whether a difference reaches 2^26 (the f64 area below is exact under it).
-        let reach = |d: i32| (d.wrapping_add(1 << 26) as u32 >= 1 << 27) as i32;
-        wide[l] = (reach(ax[l]) | reach(ay[l]) | reach(bx[l]) | reach(by[l])) & ok;
+
+    /// [`FacePass::run`] of one task's faces, in blocks of eight.
+    fn chunk<const ORIENT: bool>(
+        &self,
+        triangles: &[[u32; 3]],
+        signs: &mut [i8],
+        orientation: &mut [i8],
+    ) -> TriangleSummary {
+        let mut summary = TriangleSummary::default();
+        let mut tris = triangles.chunks_exact(BLOCK);
+        let mut sign_blocks = signs.chunks_exact_mut(BLOCK);
+        for (k, (t, s)) in (&mut tris).zip(&mut sign_blocks).enumerate() {
+            let t: &[[u32; 3]; BLOCK] = t.try_into().expect("a whole block");
+            self.block(t, s, &mut summary);
+            if ORIENT {
+                for (o, &tri) in orientation[k * BLOCK..(k + 1) * BLOCK].iter_mut().zip(t) {
+                    *o = face_orientation(self.screen, tri);
+                }
+            }
+        }
+        let rest = tris.remainder();
+        if let Some(&last) = rest.last() {
+            // A short block: the missing lanes repeat the last face; only `rest.len()` are written.
+            let mut padded = [last; BLOCK];
+            padded[..rest.len()].copy_from_slice(rest);
+            self.block(&padded, sign_blocks.into_remainder(), &mut summary);
+            if ORIENT {
+                let start = triangles.len() - rest.len();
+                for (o, &tri) in orientation[start..].iter_mut().zip(rest) {
+                    *o = face_orientation(self.screen, tri);
+                }
+            }
+        }
+        summary
     }
-    // The sign of the snapped area: in f64, exact while every difference is below 2^26 (products
-    // below 2^52, their difference below 2^53); in i64 for a block with a wider one.
-    let mut sign = [0i8; BLOCK];
-    if wide.iter().all(|&w| w == 0) {
+
+    /// One block: lanes computed branch-free, the first `signs.len()` written.
+    #[inline(always)]
+    fn block(&self, tris: &[[u32; 3]; BLOCK], signs: &mut [i8], summary: &mut TriangleSummary) {
+        let (snapped, limit) = (self.snapped, self.limit);
+        let (mut x, mut y) = ([[0i32; BLOCK]; 3], [[0i32; BLOCK]; 3]);
+        for (l, t) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let p = snapped[t[k] as usize];
+                (x[k][l], y[k][l]) = (p[0], p[1]);
+            }
+        }
+        let (mut extent, mut valid, mut wide) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
+        let (mut ax, mut ay, mut bx, mut by) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
         for l in 0..BLOCK {
-            let area2 = ax[l] as f64 * by[l] as f64 - ay[l] as f64 * bx[l] as f64;
-            sign[l] = (((area2 > 0.0) as i8) - ((area2 < 0.0) as i8)) * valid[l] as i8;
+            let ok =
+                !((x[0][l] == INVALID_SNAPPED) | (x[1][l] == INVALID_SNAPPED) | (x[2][l] == INVALID_SNAPPED)) as i32;
+            let b = [
+                x[0][l].min(x[1][l]).min(x[2][l]),
+                y[0][l].min(y[1][l]).min(y[2][l]),
+                x[0][l].max(x[1][l]).max(x[2][l]),
+                y[0][l].max(y[1][l]).max(y[2][l]),
+            ];
+            // Masked to 0 for a clipped lane, branch-free: ok is 0 or 1, so −ok is 0 or −1.
+            extent[l] = b[2].wrapping_sub(b[0]).max(b[3].wrapping_sub(b[1])).min(limit) & -ok;
+            valid[l] = ok;
+            // Edge vectors (valid coordinates are within ±2^29, so these fit in i32; a clipped
+            // lane's may wrap: it is masked out).
+            ax[l] = x[1][l].wrapping_sub(x[0][l]);
+            ay[l] = y[1][l].wrapping_sub(y[0][l]);
+            bx[l] = x[2][l].wrapping_sub(x[0][l]);
+            by[l] = y[2][l].wrapping_sub(y[0][l]);
+            // Whether a difference reaches 2^26 (the f64 area below is exact under it).
+            let reach = |d: i32| (d.wrapping_add(1 << 26) as u32 >= 1 << 27) as i32;
+            wide[l] = (reach(ax[l]) | reach(ay[l]) | reach(bx[l]) | reach(by[l])) & ok;
         }
-    } else {
-        for l in 0..BLOCK {
-            let area2 = ax[l] as i64 * by[l] as i64 - ay[l] as i64 * bx[l] as i64;
-            sign[l] = (((area2 > 0) as i8) - ((area2 < 0) as i8)) * valid[l] as i8;
+        // The sign of the snapped area: in f64, exact while every difference is below 2^26 (products
+        // below 2^52, their difference below 2^53); in i64 for a block with a wider one.
+        let mut sign = [0i8; BLOCK];
+        if wide.iter().all(|&w| w == 0) {
+            for l in 0..BLOCK {
+                let area2 = ax[l] as f64 * by[l] as f64 - ay[l] as f64 * bx[l] as f64;
+                sign[l] = (((area2 > 0.0) as i8) - ((area2 < 0.0) as i8)) * valid[l] as i8;
+            }
+        } else {
+            for l in 0..BLOCK {
+                let area2 = ax[l] as i64 * by[l] as i64 - ay[l] as i64 * bx[l] as i64;
+                sign[l] = (((area2 > 0) as i8) - ((area2 < 0) as i8)) * valid[l] as i8;
+            }
         }
+        let n = signs.len();
+        signs.copy_from_slice(&sign[..n]);
+        let counted: i32 = valid[..n].iter().sum();
+        summary.culled += (n as i32 - counted) as u32;
+        summary.counted += counted as u64;
+        summary.extent_sum += extent[..n].iter().map(|&e| e as u64).sum::<u64>();
     }
-    let n = signs.len();
-    signs.copy_from_slice(&sign[..n]);
-    let counted: i32 = valid[..n].iter().sum();
-    summary.culled += (n as i32 - counted) as u32;
-    summary.counted += counted as u64;
-    summary.extent_sum += extent[..n].iter().map(|&e| e as u64).sum::<u64>();
 }
 
 /// The weights `(w₊, w)` (see the module's notes) of an edge whose two faces run it opposite
@@ -191,7 +292,7 @@ pub(crate) fn wing_weights(f: i8, g: i8) -> (i32, i32) {
 }
 
 /// The weights `(w₊, w)` (see the module's notes) of edge `e`, whose faces are not two that run
-/// it opposite ways (those are in [`crossings`]' fast path), from its faces' signs.
+/// it opposite ways (those are in the fast path of the pass over the edges), from its faces' signs.
 pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
     let range = topology.edge_face_offsets()[e] as usize..topology.edge_face_offsets()[e + 1] as usize;
     let faces = &topology.edge_face_list()[range.clone()];
@@ -206,49 +307,41 @@ pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32,
     (positive, net)
 }
 
-/// The crossings of every edge with non-zero weights with the sample rows it spans, into
-/// `crossings` (cleared first).
-fn crossings(
-    params: &RasterParams,
-    snapped: &[[i32; 2]],
-    topology: &Topology,
-    signs: &[i8],
-    crossings: &mut Vec<Crossing>,
-) {
-    crossings.clear();
-    let h = params.half_step as i64;
-    let last_col = params.width as i64 * params.supersample as i64 - 1;
-    let last_row = params.height as i64 * params.supersample as i64 - 1;
-    let edges = topology.edges();
-    for (e, &[f, g]) in topology.edge_wings().iter().enumerate() {
-        let (positive, net) = if f != u32::MAX {
-            // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel (most
-            // edges: inside the silhouette or behind it).
-            let (f, g) = (signs[f as usize], signs[g as usize]);
-            if f == g {
-                continue;
-            }
-            wing_weights(f, g)
-        } else {
-            match edge_weights(topology, signs, e) {
-                (0, 0) => continue,
-                weights => weights,
-            }
-        };
-        // A face with non-zero sign has valid vertices, so both ends are valid.
-        let [a, b] = edges[e].map(|v| snapped[v as usize]);
+/// What the crossings of an edge need of the raster.
+#[derive(Clone, Copy, Debug)]
+struct RowGrid {
+    /// Half the sample step, in fixed-point units.
+    h: i64,
+    last_col: i64,
+    last_row: i64,
+}
+
+impl RowGrid {
+    fn new(params: &RasterParams) -> RowGrid {
+        RowGrid {
+            h: params.half_step as i64,
+            last_col: params.width as i64 * params.supersample as i64 - 1,
+            last_row: params.height as i64 * params.supersample as i64 - 1,
+        }
+    }
+
+    /// Pushes the crossings of the edge `a → b` (snapped, both valid) with weights
+    /// `(positive, net)` with the sample rows it spans.
+    #[inline]
+    fn push(&self, a: [i32; 2], b: [i32; 2], (positive, net): (i32, i32), crossings: &mut Vec<Crossing>) {
+        let RowGrid { h, last_col, last_row } = *self;
         // Run the edge downwards: χ(b → a) = −χ(a → b); a horizontal edge crosses no row.
         let (top, bottom, dir) = match a[1].cmp(&b[1]) {
             std::cmp::Ordering::Less => (a, b, 1),
             std::cmp::Ordering::Greater => (b, a, -1),
-            std::cmp::Ordering::Equal => continue,
+            std::cmp::Ordering::Equal => return,
         };
         let (top, bottom) = ([top[0] as i64, top[1] as i64], [bottom[0] as i64, bottom[1] as i64]);
         // Rows whose sample centre (2r + 1)·h lies in [top.y, bottom.y).
         let first = (top[1] + h - 1).div_euclid(2 * h).max(0);
         let last = (bottom[1] - h - 1).div_euclid(2 * h).min(last_row);
         if first > last {
-            continue;
+            return;
         }
         let (dx, dy) = (bottom[0] - top[0], bottom[1] - top[1]);
         // Sample column c is strictly left of the edge on row r when
@@ -273,20 +366,86 @@ fn crossings(
     }
 }
 
-/// Groups the crossings by sample row (a counting sort): `by_row` and its `row_offsets`.
-fn group_by_row(params: &RasterParams, crossings: &[Crossing], by_row: &mut Vec<Crossing>, row_offsets: &mut Vec<u32>) {
+/// The pass over the edges: the crossings of every edge with non-zero weights with the sample
+/// rows it spans and, in [`coverage_and_edges`], the candidate edges.
+struct EdgePass<'a> {
+    grid: RowGrid,
+    snapped: &'a [[i32; 2]],
+    topology: &'a Topology,
+    signs: &'a [i8],
+    /// The faces' orientations (read only for the candidates).
+    orientation: &'a [i8],
+}
+
+impl EdgePass<'_> {
+    /// The edges `range`: their crossings into `crossings` and (with `CANDIDATES`) the candidates
+    /// `(edge, side)` in edge order into `candidates` (both cleared first).
+    fn run<const CANDIDATES: bool>(
+        &self,
+        range: std::ops::Range<usize>,
+        crossings: &mut Vec<Crossing>,
+        candidates: &mut Vec<(u32, i32)>,
+    ) {
+        crossings.clear();
+        candidates.clear();
+        let (signs, orientation, topology) = (self.signs, self.orientation, self.topology);
+        let (edges, wings) = (&topology.edges()[range.clone()], &topology.edge_wings()[range.clone()]);
+        for (e, (&edge, &[f, g])) in range.zip(edges.iter().zip(wings)) {
+            let weights = if f != u32::MAX {
+                // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel (most
+                // edges: inside the silhouette or behind it); it is a candidate exactly when the
+                // orientations differ (see `edges`).
+                let (sf, sg) = (signs[f as usize], signs[g as usize]);
+                if CANDIDATES {
+                    let (of, og) = (orientation[f as usize], orientation[g as usize]);
+                    if of != og {
+                        candidates.push((e as u32, (of as i32 - og as i32).signum()));
+                    }
+                }
+                if sf == sg {
+                    continue;
+                }
+                wing_weights(sf, sg)
+            } else {
+                if CANDIDATES {
+                    let side = edge_side(orientation, topology, e);
+                    if side != 0 {
+                        candidates.push((e as u32, side));
+                    }
+                }
+                match edge_weights(topology, signs, e) {
+                    (0, 0) => continue,
+                    weights => weights,
+                }
+            };
+            // A face with non-zero sign has valid vertices, so both ends are valid.
+            let [a, b] = edge.map(|v| self.snapped[v as usize]);
+            self.grid.push(a, b, weights, crossings);
+        }
+    }
+}
+
+/// Groups the crossings of both lists by sample row (a counting sort): `by_row` and its
+/// `row_offsets`.
+fn group_by_row(
+    params: &RasterParams,
+    lists: [&[Crossing]; 2],
+    by_row: &mut Vec<Crossing>,
+    row_offsets: &mut Vec<u32>,
+) {
+    let crossings = || lists.iter().flat_map(|list| list.iter());
     let rows = (params.height * params.supersample) as usize;
     row_offsets.clear();
     row_offsets.resize(rows + 1, 0);
-    for c in crossings {
+    for c in crossings() {
         row_offsets[c.row as usize + 1] += 1;
     }
     for r in 0..rows {
         row_offsets[r + 1] += row_offsets[r];
     }
-    by_row.resize(crossings.len(), Crossing::default());
+    by_row.resize(row_offsets[rows] as usize, Crossing::default());
     // Place with `row_offsets[r]` as row r's cursor: it ends at row r + 1's start...
-    for c in crossings {
+    for c in crossings() {
         let slot = &mut row_offsets[c.row as usize];
         by_row[*slot as usize] = *c;
         *slot += 1;

@@ -20,7 +20,7 @@ use crate::mirror::RasterParams;
 
 pub use back_face::BackFaceSkip;
 use bands::{draw_direct, draw_in_bands, DIRECT_WORDS};
-pub use contour::{coverage, ContourScratch};
+pub use contour::{coverage, coverage_and_edges, ContourScratch, EdgesStage};
 use setup::SetupPass;
 pub use setup::TriangleSummary;
 pub use triangle::SnappedTriangle;

@@ -22,6 +22,29 @@ fn both(params: &RasterParams, snapped: &[[i32; 2]], topology: &Topology) -> [(V
     [a, (masks, filled)]
 }
 
+/// [`coverage_and_edges`] gives the masks and summary of [`coverage`] and the orientations and
+/// candidates of the `edges` stage's own functions (with stale contents in every output).
+fn check_fused(params: &RasterParams, screen: &[ScreenVertex], snapped: &[[i32; 2]], topology: &Topology, case: &str) {
+    let words = params.pixel_count() * params.words_per_pixel as usize;
+    let (mut masks, mut scratch) = (vec![0u32; words], ContourScratch::default());
+    let summary = coverage(params, snapped, topology, &mut masks, &mut scratch);
+    let n = topology.triangles().len();
+    let mut orientation = vec![0i8; n];
+    crate::cpu::edges::face_orientations(screen, topology.triangles(), &mut orientation);
+    let mut candidates = Vec::new();
+    crate::cpu::edges::edges(&orientation, topology, &mut candidates);
+    let (mut fused_masks, mut fused_orientation, mut fused_candidates) =
+        (vec![u32::MAX; words], vec![7i8; n], vec![(9, 9)]);
+    for _ in 0..2 {
+        let edges = EdgesStage { screen, orientation: &mut fused_orientation, candidates: &mut fused_candidates };
+        let fused_summary = coverage_and_edges(params, snapped, topology, &mut fused_masks, &mut scratch, edges);
+        assert_eq!(fused_summary, summary, "{case}: summary");
+        assert_eq!(fused_masks, masks, "{case}: masks");
+        assert_eq!(fused_orientation, orientation, "{case}: orientations");
+        assert_eq!(fused_candidates, candidates, "{case}: candidates");
+    }
+}
+
 /// `(g, s, t)` with `a·s + b·t = g = gcd(a, b)`.
 fn extended_gcd(a: i64, b: i64) -> (i64, i64, i64) {
     if b == 0 {
@@ -70,7 +93,8 @@ fn face_signs_are_exact() {
         let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
         let mut signs = vec![9i8; n];
         let limit = 1 << 20;
-        let summary = face_signs(&snapped, &triangles, limit, &mut signs);
+        let faces = FacePass { snapped: &snapped, screen: &[], limit: limit as i32 };
+        let summary = faces.run::<false>(&triangles, &mut signs, &mut []);
         let mut expected = TriangleSummary::default();
         for b in crate::cpu::bin::snapped_boxes(&snapped, &triangles) {
             if b == crate::cpu::bin::CULLED_BOX {
@@ -122,17 +146,15 @@ fn contour_fill_matches_drawing_on_meshes() {
         let params = RasterParams::new(w, h, f, 1.0, 0.0).unwrap();
         let topology = Topology::new(sphere.positions().len(), triangles).unwrap();
         let scale = [0.45, 0.45, 0.2, 1.5][case % 4];
-        let mut snapped: Vec<[i32; 2]> =
-            folded_placement(sphere.positions(), (w, h, f), scale, case % 3 == 0, &mut rand)
-                .iter()
-                .map(|v| params.snap_vertex(v))
-                .collect();
+        let mut screen = folded_placement(sphere.positions(), (w, h, f), scale, case % 3 == 0, &mut rand);
         if case % 7 == 3 {
             // Clipped vertices: their faces are culled.
-            for v in snapped.iter_mut().filter(|_| rand() < 0.02) {
-                *v = INVALID_SNAPPED_VERTEX;
+            for v in screen.iter_mut().filter(|_| rand() < 0.02) {
+                v.valid = 0;
             }
         }
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        check_fused(&params, &screen, &snapped, &topology, &format!("case {case}"));
         let [drawn, filled] = both(&params, &snapped, &topology);
         assert_eq!(drawn.1, filled.1, "case {case}: summary");
         assert_eq!(drawn.0, filled.0, "case {case}: masks");
@@ -172,6 +194,7 @@ fn contour_fill_matches_drawing_on_soups() {
         let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
         let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
         let topology = Topology::new(snapped.len(), triangles).unwrap();
+        check_fused(&params, &screen, &snapped, &topology, &format!("soup {case}"));
         let [drawn, filled] = both(&params, &snapped, &topology);
         assert_eq!(drawn, filled, "case {case}");
     }
@@ -185,15 +208,18 @@ fn contour_fill_matches_drawing_in_parallel() {
     assert!(sphere.triangles().len() > 2 * FACES_PER_TASK);
     for (res, f) in [(16, 4), (200, 4), (300, 3)] {
         let params = RasterParams::new(res, res, f, 1.0, 0.0).unwrap();
-        let snapped: Vec<[i32; 2]> = sphere
+        let screen: Vec<ScreenVertex> = sphere
             .positions()
             .iter()
             .map(|p| {
                 let s = res as f32 * 0.4;
                 let q = [res as f32 / 2.0 + s * (p.x + 0.3 * p.z), res as f32 / 2.0 - s * (p.y + 0.2 * p.x * p.x)];
-                params.snap_vertex(&ScreenVertex { position: q, valid: 1, pad: 0 })
+                ScreenVertex { position: q, valid: 1, pad: 0 }
             })
             .collect();
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        assert!(sphere.topology().edges().len() > PARALLEL_EDGES);
+        check_fused(&params, &screen, &snapped, sphere.topology(), &format!("{res}² F={f}"));
         let [drawn, filled] = both(&params, &snapped, sphere.topology());
         assert_eq!(drawn, filled, "{res}² F={f}");
         // The rows halved down to single rows: the same masks.
