@@ -30,7 +30,7 @@ use rayon::prelude::*;
 use super::bands::Band;
 use super::setup::{TriangleSummary, BLOCK};
 use super::triangle::floor_div;
-use crate::cpu::edges::{edge_side, face_orientation};
+use crate::cpu::edges::edge_side;
 use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED};
 use crate::scene::mesh::Topology;
 
@@ -102,10 +102,12 @@ pub struct EdgesStage<'a> {
 
 /// [`coverage`] and the `edges` stage in the same two passes over the mesh, the forward's way:
 /// the pass over the faces computes each face's snapped sign and its float orientation
-/// ([`face_orientation`]) from one read of its vertex indices, and the pass over the edges finds
-/// each edge's crossings and whether it is a candidate from one read of its faces. The masks,
-/// the summary, the orientations and the candidates are the same as [`coverage`]'s and the
-/// `edges` stage's functions give (tested).
+/// ([`face_orientation`](crate::cpu::edges::face_orientation)) from one read of its vertex
+/// indices, and the pass over the edges finds each edge's crossings and whether it is a
+/// candidate from one read of its faces. `snapped` must be the snap of `edges.screen`
+/// ([`RasterParams::snap_vertex`]: a clipped vertex is the invalid snapped one, which is how the
+/// orientations tell clipped faces). The masks, the summary, the orientations and the candidates
+/// are the same as [`coverage`]'s and the `edges` stage's functions give (tested).
 pub fn coverage_and_edges(
     params: &RasterParams,
     snapped: &[[i32; 2]],
@@ -199,40 +201,44 @@ impl FacePass<'_> {
         let mut summary = TriangleSummary::default();
         let mut tris = triangles.chunks_exact(BLOCK);
         let mut sign_blocks = signs.chunks_exact_mut(BLOCK);
-        for (k, (t, s)) in (&mut tris).zip(&mut sign_blocks).enumerate() {
+        let mut orientation_blocks = orientation.chunks_exact_mut(if ORIENT { BLOCK } else { 1 });
+        for (t, s) in (&mut tris).zip(&mut sign_blocks) {
             let t: &[[u32; 3]; BLOCK] = t.try_into().expect("a whole block");
-            self.block(t, s, &mut summary);
-            if ORIENT {
-                for (o, &tri) in orientation[k * BLOCK..(k + 1) * BLOCK].iter_mut().zip(t) {
-                    *o = face_orientation(self.screen, tri);
-                }
-            }
+            let o = if ORIENT { orientation_blocks.next().expect("one orientation per face") } else { &mut [] };
+            self.block::<ORIENT>(t, s, o, &mut summary);
         }
         let rest = tris.remainder();
         if let Some(&last) = rest.last() {
             // A short block: the missing lanes repeat the last face; only `rest.len()` are written.
             let mut padded = [last; BLOCK];
             padded[..rest.len()].copy_from_slice(rest);
-            self.block(&padded, sign_blocks.into_remainder(), &mut summary);
-            if ORIENT {
-                let start = triangles.len() - rest.len();
-                for (o, &tri) in orientation[start..].iter_mut().zip(rest) {
-                    *o = face_orientation(self.screen, tri);
-                }
-            }
+            let o = if ORIENT { orientation_blocks.into_remainder() } else { &mut [] };
+            self.block::<ORIENT>(&padded, sign_blocks.into_remainder(), o, &mut summary);
         }
         summary
     }
 
-    /// One block: lanes computed branch-free, the first `signs.len()` written.
+    /// One block: lanes computed branch-free, the first `signs.len()` signs (and with `ORIENT`
+    /// orientations) written.
     #[inline(always)]
-    fn block(&self, tris: &[[u32; 3]; BLOCK], signs: &mut [i8], summary: &mut TriangleSummary) {
+    fn block<const ORIENT: bool>(
+        &self,
+        tris: &[[u32; 3]; BLOCK],
+        signs: &mut [i8],
+        orientation: &mut [i8],
+        summary: &mut TriangleSummary,
+    ) {
         let (snapped, limit) = (self.snapped, self.limit);
         let (mut x, mut y) = ([[0i32; BLOCK]; 3], [[0i32; BLOCK]; 3]);
+        let (mut fx, mut fy) = ([[0f32; BLOCK]; 3], [[0f32; BLOCK]; 3]);
         for (l, t) in tris.iter().enumerate() {
             for k in 0..3 {
                 let p = snapped[t[k] as usize];
                 (x[k][l], y[k][l]) = (p[0], p[1]);
+                if ORIENT {
+                    let q = self.screen[t[k] as usize].position;
+                    (fx[k][l], fy[k][l]) = (q[0], q[1]);
+                }
             }
         }
         let (mut extent, mut valid, mut wide) = ([0i32; BLOCK], [0i32; BLOCK], [0i32; BLOCK]);
@@ -275,6 +281,20 @@ impl FacePass<'_> {
         }
         let n = signs.len();
         signs.copy_from_slice(&sign[..n]);
+        if ORIENT {
+            // The float orientation of `face_orientation`, the same expression, lane by lane; a
+            // vertex is clipped exactly when its snapped position is the invalid one (the snap of
+            // a clipped screen vertex).
+            let mut o = [0i8; BLOCK];
+            for l in 0..BLOCK {
+                let (x0, y0) = (fx[0][l] as f64, fy[0][l] as f64);
+                let (x1, y1) = (fx[1][l] as f64, fy[1][l] as f64);
+                let (x2, y2) = (fx[2][l] as f64, fy[2][l] as f64);
+                let cross = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
+                o[l] = (((cross > 0.0) as i8) - ((cross < 0.0) as i8)) * valid[l] as i8;
+            }
+            orientation.copy_from_slice(&o[..n]);
+        }
         let counted: i32 = valid[..n].iter().sum();
         summary.culled += (n as i32 - counted) as u32;
         summary.counted += counted as u64;
