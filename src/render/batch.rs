@@ -169,8 +169,7 @@ impl Prepared {
 /// checked finite: the code [`Renderer::backward`] runs, so the result is the same bits.
 fn chain_instance(positions: &[Vec3], views: &[ViewParams], screen: &[Vec<Vec2>], what: &str) -> Result<Vec<Vec3>> {
     let screen: Vec<_> = screen.iter().map(|g| views::ViewGradient::Screen(g)).collect();
-    let grads = views::chain_to_3d(positions, views, &screen);
-    views::check_finite_gradients(what, None, &grads, |g: Vec3| g.is_finite())?;
+    let grads = views::chain_to_3d(what, positions, views, &screen)?;
     Ok(grads)
 }
 

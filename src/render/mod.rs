@@ -262,8 +262,7 @@ impl Renderer {
         let Some(parts) = &frame.parts else {
             let screen_grads = self.backward_screen(frame, d_images)?;
             let view_grads: Vec<ViewGradient<'_>> = screen_grads.iter().map(|g| ViewGradient::Screen(g)).collect();
-            let grads = views::chain_to_3d(positions, views, &view_grads);
-            views::check_finite_gradients("backward", None, &grads, |g: Vec3| g.is_finite())?;
+            let grads = views::chain_to_3d("backward", positions, views, &view_grads)?;
             return Ok(grads);
         };
         check_d_images(frame, d_images)?;
@@ -292,8 +291,7 @@ impl Renderer {
                 Some(c) => ViewGradient::World(c.chain_to_3d(&views[k], positions, g)),
             })
             .collect();
-        let grads = views::chain_to_3d(positions, views, &view_grads);
-        views::check_finite_gradients("backward", None, &grads, |g: Vec3| g.is_finite())?;
+        let grads = views::chain_to_3d("backward", positions, views, &view_grads)?;
         Ok(grads)
     }
 

@@ -121,11 +121,10 @@ impl Renderer {
         self.last_backward = std::mem::take(&mut out.backward);
         let gradient = if view_grads.is_empty() {
             let screen: Vec<ViewGradient<'_>> = out.screen_grads.iter().map(|g| ViewGradient::Screen(g)).collect();
-            super::views::chain_to_3d(mesh.positions(), &views, &screen)
+            super::views::chain_to_3d("squared_error_step", mesh.positions(), &views, &screen)?
         } else {
-            super::views::chain_to_3d(mesh.positions(), &views, &view_grads)
+            super::views::chain_to_3d("squared_error_step", mesh.positions(), &views, &view_grads)?
         };
-        super::views::check_finite_gradients("squared_error_step", None, &gradient, |g: Vec3| g.is_finite())?;
         Step::from_output("squared_error_step", out, gradient)
     }
 

@@ -78,30 +78,53 @@ pub(super) enum ViewGradient<'a> {
 
 /// `∂L/∂(screen vertex)` per view → `∂L/∂(3D vertex)` through each view's projection Jacobian,
 /// summed over views (in view order). The same code for both engines, so the 3D gradient is
-/// bit-identical given the same 2D gradients.
-pub(super) fn chain_to_3d(positions: &[Vec3], views: &[ViewParams], view_grads: &[ViewGradient<'_>]) -> Vec<Vec3> {
-    let mut grads = vec![Vec3::ZERO; positions.len()];
-    // Per vertex, the views in order: the same sums whatever the thread count.
-    grads.par_iter_mut().with_min_len(4096).enumerate().for_each(|(v, g)| {
-        for (view, grad) in views.iter().zip(view_grads) {
-            match grad {
-                ViewGradient::Screen(g2) => {
-                    let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
-                    if d != Vec2::ZERO {
-                        let [jx, jy] = view.jacobian(positions[v]);
-                        *g += jx * d.x + jy * d.y;
+/// bit-identical given the same 2D gradients. `what` names the call in the error returned when
+/// a vertex's gradient overflows f32 (as [`check_finite_gradients`] words it); only the vertices
+/// with a non-zero term are checked (the others are zero).
+pub(super) fn chain_to_3d(
+    what: &str,
+    positions: &[Vec3],
+    views: &[ViewParams],
+    view_grads: &[ViewGradient<'_>],
+) -> Result<Vec<Vec3>> {
+    let overflowed = std::sync::atomic::AtomicBool::new(false);
+    // Per vertex, the views in order: the same sums whatever the thread count. Collected
+    // straight into the result (no zeroed buffer first).
+    let grads: Vec<Vec3> = (0..positions.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|v| {
+            let mut g = Vec3::ZERO;
+            let mut touched = false;
+            for (view, grad) in views.iter().zip(view_grads) {
+                match grad {
+                    ViewGradient::Screen(g2) => {
+                        let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
+                        if d != Vec2::ZERO {
+                            let [jx, jy] = view.jacobian(positions[v]);
+                            g += jx * d.x + jy * d.y;
+                            touched = true;
+                        }
                     }
-                }
-                ViewGradient::World(g3) => {
-                    let d = g3.get(v).copied().unwrap_or(Vec3::ZERO);
-                    if d != Vec3::ZERO {
-                        *g += d;
+                    ViewGradient::World(g3) => {
+                        let d = g3.get(v).copied().unwrap_or(Vec3::ZERO);
+                        if d != Vec3::ZERO {
+                            g += d;
+                            touched = true;
+                        }
                     }
                 }
             }
-        }
-    });
-    grads
+            if touched && !g.is_finite() {
+                overflowed.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+            g
+        })
+        .collect();
+    if overflowed.into_inner() {
+        check_finite_gradients(what, None, &grads, |g: Vec3| g.is_finite())?;
+    }
+    Ok(grads)
 }
 
 /// One view's `∂L/∂(screen vertex)` → its share of `∂L/∂(3D vertex)`: the terms
@@ -148,4 +171,32 @@ pub(super) fn check_finite_gradients<T: Copy + std::fmt::Debug>(
          the scene are too large (or vertices too close to a perspective camera); scale them down",
         grads[v]
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chain to 3D sums each vertex's views in order, leaves vertices without a term at zero,
+    /// and names the first vertex whose sum overflows f32 (only a vertex with a term can).
+    #[test]
+    fn chain_to_3d_sums_views_and_names_an_overflow() {
+        let camera = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 64, 64);
+        let views = [camera.params(), camera.params()];
+        let positions = vec![Vec3::new(0.1, 0.2, 0.3); 5000];
+        let mut screen = vec![Vec2::ZERO; 5000];
+        screen[4321] = Vec2::new(1.0, -2.0);
+        let world: Vec<Vec3> = (0..5000).map(|v| Vec3::splat((v == 17) as u32 as f32)).collect();
+        let grads = [ViewGradient::Screen(&screen), ViewGradient::World(world)];
+        let got = chain_to_3d("test", &positions, &views, &grads).unwrap();
+        let [jx, jy] = views[0].jacobian(positions[4321]);
+        assert_eq!(got[4321], Vec3::ZERO + (jx * 1.0 + jy * -2.0));
+        assert_eq!(got[17], Vec3::ONE);
+        assert_eq!(got.iter().filter(|g| **g != Vec3::ZERO).count(), 2);
+        screen[4000] = Vec2::splat(f32::MAX);
+        screen[4100] = Vec2::splat(f32::MAX);
+        let grads = [ViewGradient::Screen(&screen), ViewGradient::Screen(&screen)];
+        let e = chain_to_3d("the step", &positions, &views, &grads).unwrap_err().to_string();
+        assert!(e.contains("the step") && e.contains("vertex 4000") && e.contains("overflowed f32"), "{e}");
+    }
 }
