@@ -87,45 +87,46 @@ pub(super) fn chain_to_3d(
     views: &[ViewParams],
     view_grads: &[ViewGradient<'_>],
 ) -> Result<Vec<Vec3>> {
-    let overflowed = std::sync::atomic::AtomicBool::new(false);
-    // Per vertex, the views in order: the same sums whatever the thread count. Collected
-    // straight into the result (no zeroed buffer first).
-    let grads: Vec<Vec3> = (0..positions.len())
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|v| {
-            let mut g = Vec3::ZERO;
-            let mut touched = false;
-            for (view, grad) in views.iter().zip(view_grads) {
-                match grad {
-                    ViewGradient::Screen(g2) => {
-                        let d = g2.get(v).copied().unwrap_or(Vec2::ZERO);
-                        if d != Vec2::ZERO {
-                            let [jx, jy] = view.jacobian(positions[v]);
-                            g += jx * d.x + jy * d.y;
-                            touched = true;
-                        }
-                    }
-                    ViewGradient::World(g3) => {
-                        let d = g3.get(v).copied().unwrap_or(Vec3::ZERO);
-                        if d != Vec3::ZERO {
-                            g += d;
-                            touched = true;
-                        }
-                    }
+    // View by view (so each vertex's terms are added in view order, the same sums whatever the
+    // thread count), over chunks of vertices in parallel; a vertex without a term stays zero.
+    let mut grads: Vec<Vec3> = bytemuck::zeroed_vec(positions.len());
+    let mut overflowed = false;
+    for (view, grad) in views.iter().zip(view_grads) {
+        overflowed |= grads
+            .par_chunks_mut(CHAIN_CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let first = c * CHAIN_CHUNK;
+                let mut overflowed = false;
+                for (v, g) in (first..).zip(chunk) {
+                    let term = match grad {
+                        ViewGradient::Screen(g2) => match g2.get(v) {
+                            Some(&d) if d != Vec2::ZERO => {
+                                let [jx, jy] = view.jacobian(positions[v]);
+                                jx * d.x + jy * d.y
+                            }
+                            _ => continue,
+                        },
+                        ViewGradient::World(g3) => match g3.get(v) {
+                            Some(&d) if d != Vec3::ZERO => d,
+                            _ => continue,
+                        },
+                    };
+                    *g += term;
+                    overflowed |= !g.is_finite();
                 }
-            }
-            if touched && !g.is_finite() {
-                overflowed.store(true, std::sync::atomic::Ordering::Relaxed);
-            }
-            g
-        })
-        .collect();
-    if overflowed.into_inner() {
+                overflowed
+            })
+            .reduce(|| false, |a, b| a | b);
+    }
+    if overflowed {
         check_finite_gradients(what, None, &grads, |g: Vec3| g.is_finite())?;
     }
     Ok(grads)
 }
+
+/// Vertices per parallel task of [`chain_to_3d`].
+const CHAIN_CHUNK: usize = 4096;
 
 /// One view's `∂L/∂(screen vertex)` → its share of `∂L/∂(3D vertex)`: the terms
 /// [`chain_to_3d`] adds for a [`ViewGradient::Screen`], computed alike.
