@@ -187,11 +187,12 @@ mod tests {
         let positions = vec![Vec3::new(0.1, 0.2, 0.3); 5000];
         let mut screen = vec![Vec2::ZERO; 5000];
         screen[4321] = Vec2::new(1.0, -2.0);
-        let world: Vec<Vec3> = (0..5000).map(|v| Vec3::splat((v == 17) as u32 as f32)).collect();
+        let mut world: Vec<Vec3> = (0..5000).map(|v| Vec3::splat((v == 17) as u32 as f32)).collect();
+        world[4321] = Vec3::new(0.5, 0.0, -0.25);
         let grads = [ViewGradient::Screen(&screen), ViewGradient::World(world)];
         let got = chain_to_3d("test", &positions, &views, &grads).unwrap();
         let [jx, jy] = views[0].jacobian(positions[4321]);
-        assert_eq!(got[4321], Vec3::ZERO + (jx * 1.0 + jy * -2.0));
+        assert_eq!(got[4321], Vec3::ZERO + (jx * 1.0 + jy * -2.0) + Vec3::new(0.5, 0.0, -0.25));
         assert_eq!(got[17], Vec3::ONE);
         assert_eq!(got.iter().filter(|g| **g != Vec3::ZERO).count(), 2);
         screen[4000] = Vec2::splat(f32::MAX);
