@@ -40,7 +40,7 @@
 //! # How
 //!
 //! 1. Triangle boxes go into a BVH from `obvhs` ([`BvhBuildParams::fast_build`](obvhs::BvhBuildParams::fast_build) with leaves of
-//!    up to 8 triangles). [`SelfIntersectionChecker`] keeps it between calls and, by default,
+//!    up to 12 triangles). [`SelfIntersectionChecker`] keeps it between calls and, by default,
 //!    *refits* it to the new positions, rebuilding only when refitting has degraded it (see
 //!    [`RebuildPolicy`]). For the built-in figure's 7.7k triangles a rebuild costs about 1 ms, a
 //!    refit a few tens of µs: refitting wins, and stays good even over large motions (one

@@ -50,6 +50,10 @@ impl SelfIntersectionChecker {
                 }
             }
         };
+        let half_areas = &mut self.half_areas;
+        half_areas.clear();
+        half_areas.extend(nodes.iter().map(|n| n.aabb().half_area()));
+        let half_areas = &*half_areas;
         let stack = &mut self.stack;
         stack.clear();
         stack.push((0, 0));
@@ -80,7 +84,7 @@ impl SelfIntersectionChecker {
                     }
                 }
                 (a_leaf, b_leaf) => {
-                    let split_a = !a_leaf && (b_leaf || na.aabb().half_area() >= nb.aabb().half_area());
+                    let split_a = !a_leaf && (b_leaf || half_areas[a as usize] >= half_areas[b as usize]);
                     let (split, other) = if split_a { (na, b) } else { (nb, a) };
                     let other_box = nodes[other as usize].aabb();
                     for c in [split.first_index, split.first_index + 1] {
