@@ -5,6 +5,14 @@
 use glam::{BVec4A, Vec4};
 use obvhs::aabb::Aabb;
 
+/// The box lanes of four consecutive triangles ([`BoxLanes::group`]).
+pub(super) struct Group {
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    /// The first of the four.
+    pub(super) first: usize,
+}
+
 /// Lanes past the last triangle, so that a group of four starting at any triangle can be loaded.
 const PAD: usize = 3;
 
@@ -62,6 +70,29 @@ impl BoxLanes {
         }
     }
 
+    /// The lanes of triangles `first..first + 4`, loaded once for tests against many triangles
+    /// ([`BoxLanes::group_overlaps`], [`BoxLanes::group_shared`]).
+    #[inline(always)]
+    pub(super) fn group(&self, first: usize) -> Group {
+        let load = |a: &[f32]| Vec4::from_slice(&a[first..first + 4]);
+        Group {
+            lo: [load(&self.lo[0]), load(&self.lo[1]), load(&self.lo[2])],
+            hi: [load(&self.hi[0]), load(&self.hi[1]), load(&self.hi[2])],
+            first,
+        }
+    }
+
+    /// [`BoxLanes::overlaps`] of triangle `k` against a loaded group.
+    #[inline(always)]
+    pub(super) fn group_overlaps(&self, k: usize, group: &Group, count: usize) -> u32 {
+        let one = |a: &[f32]| Vec4::splat(a[k]);
+        let mut met = group.lo[0].cmple(one(&self.hi[0])) & one(&self.lo[0]).cmple(group.hi[0]);
+        for axis in 1..3 {
+            met &= group.lo[axis].cmple(one(&self.hi[axis])) & one(&self.lo[axis]).cmple(group.hi[axis]);
+        }
+        met.bitmask() & ((1u32 << count) - 1)
+    }
+
     /// Bit `j` set when the box of triangle `k` overlaps (closed boxes: touching counts) that of
     /// triangle `first + j`, for `j` in `0..count` (`count` ≤ 4). The same comparisons as
     /// [`Aabb::intersect_aabb`] on finite boxes.
@@ -107,7 +138,7 @@ mod tests {
     use crate::random::SplitMix64;
 
     /// The four-wide test agrees with `Aabb::intersect_aabb` on random boxes, touching ones
-    /// included, for every group start and length.
+    /// included, for every group start and length, and so does its test against a loaded group.
     #[test]
     fn overlaps_match_the_scalar_test() {
         let mut rng = SplitMix64::new(3);
@@ -130,6 +161,7 @@ mod tests {
             for first in 0..boxes.len() {
                 for count in 0..=4.min(boxes.len() - first) {
                     let bits = lanes.overlaps(k, first, count);
+                    assert_eq!(lanes.group_overlaps(k, &lanes.group(first), count), bits, "a loaded group");
                     for j in 0..4 {
                         let expected =
                             j < count && boxes[order[k] as usize].intersect_aabb(&boxes[order[first + j] as usize]);

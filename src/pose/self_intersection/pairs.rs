@@ -39,7 +39,7 @@ impl SelfIntersectionChecker {
         // Hot path: triangle `k` against the triangles `first..end` of a leaf, four at a time:
         // the boxes that meet, less the neighbours (a shared vertex), as bit masks; exact tests
         // come after, on the few left.
-        let mut consider = |k: u32, first: u32, end: u32| {
+        let consider = |k: u32, first: u32, end: u32, candidates: &mut Vec<[u32; 2]>| {
             for group in (first..end).step_by(4) {
                 let lanes_left = (end - group).min(4) as usize;
                 let mut met =
@@ -65,7 +65,7 @@ impl SelfIntersectionChecker {
                 if na.is_leaf() {
                     let end = na.first_index + na.prim_count;
                     for k in na.first_index..end {
-                        consider(k, k + 1, end);
+                        consider(k, k + 1, end, candidates);
                     }
                 } else {
                     let (l, r) = (na.first_index, na.first_index + 1);
@@ -79,8 +79,20 @@ impl SelfIntersectionChecker {
             }
             match (na.is_leaf(), nb.is_leaf()) {
                 (true, true) => {
-                    for k in na.first_index..na.first_index + na.prim_count {
-                        consider(k, nb.first_index, nb.first_index + nb.prim_count);
+                    // Group by group of the second leaf, each loaded once for all of the first's
+                    // triangles.
+                    let end = nb.first_index + nb.prim_count;
+                    for first in (nb.first_index..end).step_by(4) {
+                        let group = lanes.group(first as usize);
+                        let lanes_left = (end - first).min(4) as usize;
+                        for k in na.first_index..na.first_index + na.prim_count {
+                            let mut met = lanes.group_overlaps(k as usize, &group, lanes_left)
+                                & !lanes.shared(k as usize, group.first);
+                            while met != 0 {
+                                candidates.push([k, first + met.trailing_zeros()]);
+                                met &= met - 1;
+                            }
+                        }
                     }
                 }
                 (a_leaf, b_leaf) => {
