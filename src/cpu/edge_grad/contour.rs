@@ -87,6 +87,10 @@ pub struct ContourBands {
     per_pixel: f64,
     /// Number of bands.
     bands: u32,
+    /// The last band listing each of `edges` (the first is in the edge).
+    last_bands: Vec<u32>,
+    /// The fill's cursor per band (kept for its buffer).
+    next: Vec<u32>,
 }
 
 impl ContourBands {
@@ -136,9 +140,11 @@ impl ContourBands {
         self.bands = ((image_height as f64 * self.per_pixel).ceil() as u32).max(1);
         self.offsets.clear();
         self.offsets.resize(self.bands as usize + 1, 0);
+        self.last_bands.clear();
         for c in &mut self.edges {
             c.first_band = band_of(self.per_pixel, self.bands, c.lo.y);
             let last = band_of(self.per_pixel, self.bands, c.hi.y);
+            self.last_bands.push(last);
             for k in c.first_band..=last {
                 self.offsets[k as usize + 1] += 1;
             }
@@ -149,7 +155,9 @@ impl ContourBands {
         let total = self.offsets[self.bands as usize] as usize;
         self.entries.clear();
         self.entries.resize(total, self.edges.first().copied().unwrap_or(EMPTY));
-        let mut next = self.offsets.clone();
+        let next = &mut self.next;
+        next.clear();
+        next.extend_from_slice(&self.offsets);
         self.widths.clear();
         self.widths.resize(self.bands as usize, 0.0);
         // Filled in the order of `lo.x`, so that every band list is sorted by it.
@@ -157,8 +165,9 @@ impl ContourBands {
         self.order.extend(self.edges.iter().enumerate().map(|(i, c)| (x_key(c.lo.x as f32) << 32) | i as u64));
         self.order.sort_unstable();
         for &key in &self.order {
-            let c = &self.edges[key as u32 as usize];
-            for k in c.first_band..=band_of(self.per_pixel, self.bands, c.hi.y) {
+            let i = key as u32 as usize;
+            let c = &self.edges[i];
+            for k in c.first_band..=self.last_bands[i] {
                 self.entries[next[k as usize] as usize] = *c;
                 next[k as usize] += 1;
                 self.widths[k as usize] = self.widths[k as usize].max(c.hi.x - c.lo.x);
