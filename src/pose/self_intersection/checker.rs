@@ -185,13 +185,14 @@ impl SelfIntersectionChecker {
         let mut volume = vec![0.0f64; self.component_count];
         let mut reference: Vec<Option<DVec3>> = vec![None; self.component_count];
         for (t, tri) in self.triangles.iter().enumerate() {
-            let p = tri.map(|v| positions[v as usize]);
+            // In SIMD lanes (`Vec3A`; the positions are finite, so `min`/`max` are the scalar ones).
+            let p = tri.map(|v| Vec3A::from(positions[v as usize]));
             let lo = p[0].min(p[1]).min(p[2]);
             let hi = p[0].max(p[1]).max(p[2]);
             // A little slack so that f32 box tests never miss a contact that f64 sees.
-            let pad = Vec3::splat((hi - lo).max_element() * 1e-5 + lo.abs().max(hi.abs()).max_element() * 1e-6);
-            let (lo, hi) = ((lo - pad).max(Vec3::splat(-f32::MAX)), (hi + pad).min(Vec3::splat(f32::MAX)));
-            self.aabbs.push(Aabb::new(Vec3A::from(lo), Vec3A::from(hi)));
+            let pad = Vec3A::splat((hi - lo).max_element() * 1e-5 + lo.abs().max(hi.abs()).max_element() * 1e-6);
+            let (lo, hi) = ((lo - pad).max(Vec3A::splat(-f32::MAX)), (hi + pad).min(Vec3A::splat(f32::MAX)));
+            self.aabbs.push(Aabb::new(lo, hi));
             let q = tri.map(|v| pos[v as usize]);
             match plane_normal(&q) {
                 Some(nrm) => {
