@@ -108,6 +108,8 @@ pub struct EdgesStage<'a> {
 /// ([`RasterParams::snap_vertex`]: a clipped vertex is the invalid snapped one, which is how the
 /// orientations tell clipped faces). The masks, the summary, the orientations and the candidates
 /// are the same as [`coverage`]'s and the `edges` stage's functions give (tested).
+///
+/// Panics when `edges.orientation` does not hold one entry per face.
 pub fn coverage_and_edges(
     params: &RasterParams,
     snapped: &[[i32; 2]],
@@ -129,6 +131,9 @@ fn passes<const EDGES: bool>(
     edges: EdgesStage<'_>,
 ) -> TriangleSummary {
     let triangles = topology.triangles();
+    if EDGES {
+        assert_eq!(edges.orientation.len(), triangles.len(), "coverage_and_edges: one orientation per face");
+    }
     scratch.signs.resize(triangles.len(), 0);
     let limit = params.width.max(params.height) as i64 * params.units as i64;
     let faces = FacePass { snapped, screen: edges.screen, limit: limit as i32 };
