@@ -231,3 +231,23 @@ fn contour_fill_matches_drawing_in_parallel() {
         assert_eq!(drawn.0, masks, "{res}² F={f}, rows in parallel halves");
     }
 }
+
+/// An orientation slice that is not one per face is refused, not left partly unwritten (a mesh
+/// large enough for the faces' parallel tasks, whose zip would stop at the shorter slice).
+#[test]
+#[should_panic(expected = "one orientation per face")]
+fn coverage_and_edges_refuses_a_short_orientation_slice() {
+    let sphere = crate::scene::shapes::icosphere(5);
+    assert!(sphere.triangles().len() > FACES_PER_TASK);
+    let params = RasterParams::new(8, 8, 4, 1.0, 0.0).unwrap();
+    let screen: Vec<ScreenVertex> = sphere
+        .positions()
+        .iter()
+        .map(|p| ScreenVertex { position: [4.0 + 3.0 * p.x, 4.0 + 3.0 * p.y], valid: 1, pad: 0 })
+        .collect();
+    let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+    let mut masks = vec![0u32; params.pixel_count() * params.words_per_pixel as usize];
+    let mut orientation = vec![0i8; FACES_PER_TASK];
+    let edges = EdgesStage { screen: &screen, orientation: &mut orientation, candidates: &mut Vec::new() };
+    coverage_and_edges(&params, &snapped, sphere.topology(), &mut masks, &mut ContourScratch::default(), edges);
+}
