@@ -24,6 +24,12 @@
 //! covered samples are the spans between its crossings where the running sums, swept from the
 //! right, satisfy the rule. The work is proportional to the contour's crossings and the covered
 //! spans, not to the number of triangles.
+//!
+//! What remains proportional to the mesh is one pass over the faces (their snapped signs) and one
+//! over the edges (their weights). The forward runs the `edges` stage in the same two passes
+//! ([`coverage_and_edges`]): the float orientation of each face beside its snapped sign, and
+//! whether each edge is a candidate beside its crossings, so each face's vertices and each
+//! edge's faces are read once for both stages.
 
 use rayon::prelude::*;
 
