@@ -37,16 +37,24 @@ pub fn face_orientation(screen: &[ScreenVertex], tri: [u32; 3]) -> i8 {
     // per face (about 2 M instructions of a bunny step).
     let (v0, v1, v2) = (screen[tri[0] as usize], screen[tri[1] as usize], screen[tri[2] as usize]);
     let valid = (v0.valid != 0) & (v1.valid != 0) & (v2.valid != 0);
-    let (x0, y0) = (v0.position[0] as f64, v0.position[1] as f64);
-    let (x1, y1) = (v1.position[0] as f64, v1.position[1] as f64);
-    let (x2, y2) = (v2.position[0] as f64, v2.position[1] as f64);
-    let cross = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
-    let sign = (cross > 0.0) as i8 - (cross < 0.0) as i8;
+    let sign = orientation_sign(v0.position, v1.position, v2.position);
     if valid {
         sign
     } else {
         0
     }
+}
+
+/// The sign of `cross(p1 − p0, p2 − p0)` (+1, −1, 0), computed in f64, where the f32 differences
+/// and their products are exact: the orientation of [`face_orientation`], whatever the vertices'
+/// validity.
+#[inline(always)]
+pub fn orientation_sign(p0: [f32; 2], p1: [f32; 2], p2: [f32; 2]) -> i8 {
+    let (x0, y0) = (p0[0] as f64, p0[1] as f64);
+    let (x1, y1) = (p1[0] as f64, p1[1] as f64);
+    let (x2, y2) = (p2[0] as f64, p2[1] as f64);
+    let cross = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
+    (cross > 0.0) as i8 - (cross < 0.0) as i8
 }
 
 /// Side of the inside of a candidate edge `[a, b]`: `+1` when the faces lie to the left of

@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use super::bands::Band;
 use super::setup::{TriangleSummary, BLOCK};
 use super::triangle::floor_div;
-use crate::cpu::edges::edge_side;
+use crate::cpu::edges::{edge_side, orientation_sign};
 use crate::mirror::{RasterParams, ScreenVertex, INVALID_SNAPPED};
 use crate::scene::mesh::Topology;
 
@@ -293,16 +293,13 @@ impl FacePass<'_> {
         let n = signs.len();
         signs.copy_from_slice(&sign[..n]);
         if ORIENT {
-            // The float orientation of `face_orientation`, the same expression, lane by lane; a
-            // vertex is clipped exactly when its snapped position is the invalid one (the snap of
-            // a clipped screen vertex).
+            // The float orientation of `face_orientation`, lane by lane; a vertex is clipped
+            // exactly when its snapped position is the invalid one (the snap of a clipped screen
+            // vertex).
             let mut o = [0i8; BLOCK];
             for l in 0..BLOCK {
-                let (x0, y0) = (fx[0][l] as f64, fy[0][l] as f64);
-                let (x1, y1) = (fx[1][l] as f64, fy[1][l] as f64);
-                let (x2, y2) = (fx[2][l] as f64, fy[2][l] as f64);
-                let cross = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
-                o[l] = (((cross > 0.0) as i8) - ((cross < 0.0) as i8)) * valid[l] as i8;
+                let (p0, p1, p2) = ([fx[0][l], fy[0][l]], [fx[1][l], fy[1][l]], [fx[2][l], fy[2][l]]);
+                o[l] = orientation_sign(p0, p1, p2) * valid[l] as i8;
             }
             orientation.copy_from_slice(&o[..n]);
         }
