@@ -70,8 +70,8 @@ impl BoxLanes {
         }
     }
 
-    /// The lanes of triangles `first..first + 4`, loaded once for tests against many triangles
-    /// ([`BoxLanes::group_overlaps`], [`BoxLanes::group_shared`]).
+    /// The box lanes of triangles `first..first + 4`, loaded once for tests against many
+    /// triangles ([`BoxLanes::group_overlaps`]).
     #[inline(always)]
     pub(super) fn group(&self, first: usize) -> Group {
         let load = |a: &[f32]| Vec4::from_slice(&a[first..first + 4]);
