@@ -36,18 +36,13 @@ impl SelfIntersectionChecker {
         self.lanes.fill_boxes(prims, &self.aabbs);
         let lanes = &self.lanes;
         let candidates = &mut self.candidates;
-        // Hot path: triangle `k` against the triangles `first..end` of a leaf, four at a time:
-        // the boxes that meet, less the neighbours (a shared vertex), as bit masks; exact tests
-        // come after, on the few left.
-        let consider = |k: u32, first: u32, end: u32, candidates: &mut Vec<[u32; 2]>| {
-            for group in (first..end).step_by(4) {
-                let lanes_left = (end - group).min(4) as usize;
-                let mut met =
-                    lanes.overlaps(k as usize, group as usize, lanes_left) & !lanes.shared(k as usize, group as usize);
-                while met != 0 {
-                    candidates.push([k, group + met.trailing_zeros()]);
-                    met &= met - 1;
-                }
+        // Hot path: a leaf's triangles against a leaf's, four at a time: the boxes that meet,
+        // less the neighbours (a shared vertex), as a bit mask `met` over the four triangles from
+        // `first`, each set bit a candidate pair with `k`; exact tests come after, on the few left.
+        let push = |candidates: &mut Vec<[u32; 2]>, k: u32, first: u32, mut met: u32| {
+            while met != 0 {
+                candidates.push([k, first + met.trailing_zeros()]);
+                met &= met - 1;
             }
         };
         let half_areas = &mut self.half_areas;
@@ -65,7 +60,12 @@ impl SelfIntersectionChecker {
                 if na.is_leaf() {
                     let end = na.first_index + na.prim_count;
                     for k in na.first_index..end {
-                        consider(k, k + 1, end, candidates);
+                        for first in (k + 1..end).step_by(4) {
+                            let lanes_left = (end - first).min(4) as usize;
+                            let met = lanes.overlaps(k as usize, first as usize, lanes_left)
+                                & !lanes.shared(k as usize, first as usize);
+                            push(candidates, k, first, met);
+                        }
                     }
                 } else {
                     let (l, r) = (na.first_index, na.first_index + 1);
@@ -86,12 +86,9 @@ impl SelfIntersectionChecker {
                         let group = lanes.group(first as usize);
                         let lanes_left = (end - first).min(4) as usize;
                         for k in na.first_index..na.first_index + na.prim_count {
-                            let mut met = lanes.group_overlaps(k as usize, &group, lanes_left)
+                            let met = lanes.group_overlaps(k as usize, &group, lanes_left)
                                 & !lanes.shared(k as usize, group.first);
-                            while met != 0 {
-                                candidates.push([k, first + met.trailing_zeros()]);
-                                met &= met - 1;
-                            }
+                            push(candidates, k, first, met);
                         }
                     }
                 }
