@@ -101,10 +101,7 @@ pub(super) fn chain_to_3d(
                 for (v, g) in (first..).zip(chunk) {
                     let term = match grad {
                         ViewGradient::Screen(g2) => match g2.get(v) {
-                            Some(&d) if d != Vec2::ZERO => {
-                                let [jx, jy] = view.jacobian(positions[v]);
-                                jx * d.x + jy * d.y
-                            }
+                            Some(&d) if d != Vec2::ZERO => screen_term(view, positions[v], d),
                             _ => continue,
                         },
                         ViewGradient::World(g3) => match g3.get(v) {
@@ -140,10 +137,17 @@ pub(super) fn view_to_3d(view: &ViewParams, positions: &[Vec3], screen_grads: &[
             if d == Vec2::ZERO {
                 return Vec3::ZERO;
             }
-            let [jx, jy] = view.jacobian(p);
-            jx * d.x + jy * d.y
+            screen_term(view, p, d)
         })
         .collect()
+}
+
+/// The term a screen gradient `d` at vertex position `p` adds to `∂L/∂p` through the view's
+/// projection Jacobian: the one expression [`chain_to_3d`] and [`view_to_3d`] share.
+#[inline]
+fn screen_term(view: &ViewParams, p: Vec3, d: Vec2) -> Vec3 {
+    let [jx, jy] = view.jacobian(p);
+    jx * d.x + jy * d.y
 }
 
 /// Each view's clipped geometry, or `None` for a view rendered as without clipping.
