@@ -30,24 +30,25 @@
 //! the visible intervals' ends can differ from the triangle tests' in their last bits (a
 //! relative 1e-16, far below the f32 gradient slots' precision).
 
-use glam::DVec2;
+use glam::{DVec2, Vec2};
 
-use super::{floor, position};
+use super::floor;
 use crate::cpu::coverage::contour::{edge_weights, wing_weights};
 use crate::cpu::edges::edge_side;
 use crate::mirror::ScreenVertex;
 use crate::reference::closed_form::segment_weights;
 use crate::scene::mesh::Topology;
 
-/// One edge of the view's contour.
+/// One edge of the view's contour (48 bytes: the band lists hold a copy per band). Its points are
+/// the screen vertices' f32 values, converted to f64 (exactly) where they are used.
 #[derive(Clone, Copy, Debug)]
 struct ContourEdge {
     /// End points, in the topology's order `[a, b]`.
-    a: DVec2,
-    b: DVec2,
+    a: Vec2,
+    b: Vec2,
     /// Its box.
-    lo: DVec2,
-    hi: DVec2,
+    lo: Vec2,
+    hi: Vec2,
     /// `w₊` and `w` for the direction `a → b`.
     positive: i32,
     net: i32,
@@ -112,7 +113,7 @@ impl ContourBands {
         };
         self.edges.clear();
         let mut push = |e: u32, (positive, net): (i32, i32)| {
-            let [a, b] = edges[e as usize].map(|v| position(screen, v));
+            let [a, b] = edges[e as usize].map(|v| Vec2::from_array(screen[v as usize].position));
             let (lo, hi) = (a.min(b), a.max(b));
             self.edges.push(ContourEdge { a, b, lo, hi, positive, net, edge: e, first_band: 0 });
         };
@@ -129,7 +130,7 @@ impl ContourBands {
         }
         // Bands about one mean edge height high: an edge then meets one or two bands, and a
         // band holds about as many edges as the contour crosses one image row.
-        let extent: f64 = self.edges.iter().map(|c| (c.hi.y - c.lo.y).min(MAX_BAND)).sum();
+        let extent: f64 = self.edges.iter().map(|c| (c.hi.y as f64 - c.lo.y as f64).min(MAX_BAND)).sum();
         let mean = if self.edges.is_empty() { MAX_BAND } else { extent / self.edges.len() as f64 };
         let mut height = mean.clamp(MIN_BAND, MAX_BAND);
         height = 2f64.powi(height.log2().ceil() as i32);
@@ -142,8 +143,8 @@ impl ContourBands {
         self.offsets.resize(self.bands as usize + 1, 0);
         self.last_bands.clear();
         for c in &mut self.edges {
-            c.first_band = band_of(self.per_pixel, self.bands, c.lo.y);
-            let last = band_of(self.per_pixel, self.bands, c.hi.y);
+            c.first_band = band_of(self.per_pixel, self.bands, c.lo.y as f64);
+            let last = band_of(self.per_pixel, self.bands, c.hi.y as f64);
             self.last_bands.push(last);
             for k in c.first_band..=last {
                 self.offsets[k as usize + 1] += 1;
@@ -153,8 +154,8 @@ impl ContourBands {
             self.offsets[k + 1] += self.offsets[k];
         }
         let total = self.offsets[self.bands as usize] as usize;
-        self.entries.clear();
-        self.entries.resize(total, self.edges.first().copied().unwrap_or(EMPTY));
+        // Every entry is written below: resizing keeps old values without rewriting them.
+        self.entries.resize(total, EMPTY);
         let next = &mut self.next;
         next.clear();
         next.extend_from_slice(&self.offsets);
@@ -162,7 +163,7 @@ impl ContourBands {
         self.widths.resize(self.bands as usize, 0.0);
         // Filled in the order of `lo.x`, so that every band list is sorted by it.
         self.order.clear();
-        self.order.extend(self.edges.iter().enumerate().map(|(i, c)| (x_key(c.lo.x as f32) << 32) | i as u64));
+        self.order.extend(self.edges.iter().enumerate().map(|(i, c)| (x_key(c.lo.x) << 32) | i as u64));
         self.order.sort_unstable();
         for &key in &self.order {
             let i = key as u32 as usize;
@@ -170,7 +171,7 @@ impl ContourBands {
             for k in c.first_band..=self.last_bands[i] {
                 self.entries[next[k as usize] as usize] = *c;
                 next[k as usize] += 1;
-                self.widths[k as usize] = self.widths[k as usize].max(c.hi.x - c.lo.x);
+                self.widths[k as usize] = self.widths[k as usize].max(c.hi.x as f64 - c.lo.x as f64);
             }
         }
         for width in &mut self.widths {
@@ -190,7 +191,7 @@ impl ContourBands {
         let list = &self.entries[self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize];
         let bound = x - self.widths[k as usize];
         let bound = bound - 1e-12 * bound.abs();
-        (list, list.partition_point(|c| c.lo.x < bound))
+        (list, list.partition_point(|c| (c.lo.x as f64) < bound))
     }
 
     /// What the visible parts of candidate edge `e` (`va → vb`, outward normal `outward`) follow
@@ -215,18 +216,23 @@ impl ContourBands {
         out.yielded.clear();
         for k in first..=last {
             let (list, reach) = self.list(k, lo.x);
-            let end = list.partition_point(|c| c.lo.x <= hi.x);
+            let end = list.partition_point(|c| c.lo.x as f64 <= hi.x);
             for c in &list[reach.min(end)..end] {
                 // An edge listed in several of these bands is tested in the first one.
-                if c.first_band.max(first) != k || c.hi.x < lo.x || c.hi.y < lo.y || c.lo.y > hi.y {
+                if c.first_band.max(first) != k
+                    || (c.hi.x as f64) < lo.x
+                    || (c.hi.y as f64) < lo.y
+                    || c.lo.y as f64 > hi.y
+                {
                     continue;
                 }
-                let (ha, hb) = ((c.a - va).dot(outward), (c.b - va).dot(outward));
+                let (ca, cb) = (c.a.as_dvec2(), c.b.as_dvec2());
+                let (ha, hb) = ((ca - va).dot(outward), (cb - va).dot(outward));
                 if (ha > 0.0) != (hb > 0.0) {
                     // It crosses the line just outside the edge (an end on the edge's line
                     // counts as inside); where, from the two ends' sides of its own line.
-                    let u = c.b - c.a;
-                    let (c0, c1) = (cross(u, c.a - va), cross(u, c.a - vb));
+                    let u = cb - ca;
+                    let (c0, c1) = (cross(u, ca - va), cross(u, ca - vb));
                     if (c0 > 0.0 && c1 < 0.0) || (c0 < 0.0 && c1 > 0.0) {
                         let dir = if c0 > 0.0 { 1 } else { -1 };
                         out.crossings.push((c0 / (c0 - c1), dir * c.positive, dir * c.net));
@@ -241,7 +247,7 @@ impl ContourBands {
         // The sums at the start: a ray cast to the left or to the right of it, whichever meets
         // fewer entries of its band.
         let (list, reach) = self.list(start_band, va.x);
-        let left = list.partition_point(|c| c.lo.x <= va.x);
+        let left = list.partition_point(|c| c.lo.x as f64 <= va.x);
         let (mut positive, mut net) = (0, 0);
         if left <= list.len() - reach {
             for c in &list[..left] {
@@ -269,10 +275,10 @@ impl ContourBands {
 
 /// A band list entry that is never read (the fill value of an empty list).
 const EMPTY: ContourEdge = ContourEdge {
-    a: DVec2::ZERO,
-    b: DVec2::ZERO,
-    lo: DVec2::ZERO,
-    hi: DVec2::ZERO,
+    a: Vec2::ZERO,
+    b: Vec2::ZERO,
+    lo: Vec2::ZERO,
+    hi: Vec2::ZERO,
     positive: 0,
     net: 0,
     edge: u32::MAX,
@@ -328,13 +334,14 @@ enum Ray {
 #[inline]
 fn ray_crossing(c: &ContourEdge, va: DVec2, d: DVec2, n: DVec2, ray: Ray) -> i32 {
     let at_or_below = |y: f64| sign3(va.y - y, d.y, n.y) > 0;
-    let (a_le, b_le) = (at_or_below(c.a.y), at_or_below(c.b.y));
+    let (a_le, b_le) = (at_or_below(c.a.y as f64), at_or_below(c.b.y as f64));
     if a_le == b_le {
         return 0;
     }
-    let u = c.b - c.a;
+    let (ca, cb) = (c.a.as_dvec2(), c.b.as_dvec2());
+    let u = cb - ca;
     // > 0: p lies left of a downward edge, right of an upward one.
-    let side = sign3(cross(u, va - c.a), cross(u, d), cross(u, n));
+    let side = sign3(cross(u, va - ca), cross(u, d), cross(u, n));
     let wanted = if a_le == (ray == Ray::Right) { side > 0 } else { side < 0 };
     if a_le {
         wanted as i32
@@ -370,7 +377,7 @@ fn yielded_stretch(
         return None;
     }
     let dd = d.dot(d);
-    let (ta, tb) = ((c.a - va).dot(d) / dd, (c.b - va).dot(d) / dd);
+    let (ta, tb) = ((c.a.as_dvec2() - va).dot(d) / dd, (c.b.as_dvec2() - va).dot(d) / dd);
     Some((ta.min(tb), ta.max(tb)))
 }
 
