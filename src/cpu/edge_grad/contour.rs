@@ -333,6 +333,10 @@ enum Ray {
 /// (each crossing of `p`'s row lies on one side of `p`), so `N = −Σ w·χ′`.
 #[inline]
 fn ray_crossing(c: &ContourEdge, va: DVec2, d: DVec2, n: DVec2, ray: Ray) -> i32 {
+    // Strictly above or below both ends, the point's perturbations change nothing: no crossing.
+    if va.y < c.lo.y as f64 || va.y > c.hi.y as f64 {
+        return 0;
+    }
     let at_or_below = |y: f64| sign3(va.y - y, d.y, n.y) > 0;
     let (a_le, b_le) = (at_or_below(c.a.y as f64), at_or_below(c.b.y as f64));
     if a_le == b_le {
