@@ -1,6 +1,8 @@
 //! The contour fill against drawing every triangle, and the face signs against i64 areas.
 
+use super::faces::FACES_PER_TASK;
 use super::*;
+use crate::cpu::coverage::setup::BLOCK;
 use crate::cpu::coverage::{damage, draw_triangles, folded_placement, xorshift, BackFaceSkip};
 use crate::mirror::{ScreenVertex, COORD_LIMIT, INVALID_SNAPPED_VERTEX};
 
@@ -250,4 +252,55 @@ fn coverage_and_edges_refuses_a_short_orientation_slice() {
     let mut orientation = vec![0i8; FACES_PER_TASK];
     let edges = EdgesStage { screen: &screen, orientation: &mut orientation, candidates: &mut Vec::new() };
     coverage_and_edges(&params, &snapped, sphere.topology(), &mut masks, &mut ContourScratch::default(), edges);
+}
+
+/// Faces within rounding of degenerate, one per block of eight among large ones, at coordinates
+/// from the image to near the coordinate limit and for a supersampling with a power-of-two grid
+/// and one without: the fused pass's orientations are the floats' ([`OrientationBound`] lets
+/// the snapped sign stand only where the floats cannot disagree), and the cases include
+/// faces whose snapped sign is not their orientation.
+#[test]
+fn orientations_of_near_degenerate_faces_follow_the_floats() {
+    let mut next = xorshift(0x3c6e_f372_fe94_f82b);
+    let mut rand = move || next();
+    let mut disagreements = 0;
+    for case in 0..24 {
+        let f = [4, 3][case % 2];
+        let params = RasterParams::new(32, 24, f, 1.0, 0.0).unwrap();
+        let magnitude = [10.0, 1e3, 1e5, 1e6][case / 2 % 4];
+        let mut screen = Vec::new();
+        let blocks = 200;
+        for k in 0..blocks * BLOCK {
+            let centre = [(rand() - 0.5) * 2.0 * magnitude, (rand() - 0.5) * 2.0 * magnitude];
+            let p = if k % BLOCK == (k / BLOCK) % BLOCK {
+                // A sliver: the third vertex a small distance off the line of the first two.
+                let length = [0.005, 0.05, 0.5, 5.0, 50.0][k % 5] * (0.5 + rand());
+                let angle = rand() * std::f64::consts::TAU;
+                let d = [length * angle.cos(), length * angle.sin()];
+                let (t, off) = (rand(), (rand() - 0.5) * [1e-3, 1e-2, 0.1][k % 3] / length.max(1.0));
+                [
+                    centre,
+                    [centre[0] + d[0], centre[1] + d[1]],
+                    [centre[0] + t * d[0] - off * d[1], centre[1] + t * d[1] + off * d[0]],
+                ]
+            } else {
+                let size = 5.0 + 30.0 * rand();
+                [centre, [centre[0] + size, centre[1] + 0.3 * size], [centre[0] + 0.2 * size, centre[1] + size]]
+            };
+            screen.extend(p.map(|q| ScreenVertex { position: [q[0] as f32, q[1] as f32], valid: 1, pad: 0 }));
+        }
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let n = blocks * BLOCK;
+        let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        for t in &triangles {
+            let [a, b, c] = t.map(|i| snapped[i as usize]);
+            let w = [a, b, c].map(|p| [p[0] as i64, p[1] as i64]);
+            let sign = crate::cpu::coverage::triangle::area2(&w).signum() as i8;
+            let q = t.map(|i| screen[i as usize].position);
+            disagreements += (sign != crate::cpu::edges::orientation_sign(q[0], q[1], q[2])) as u32;
+        }
+        let topology = Topology::new(snapped.len(), triangles).unwrap();
+        check_fused(&params, &screen, &snapped, &topology, &format!("slivers {case}"));
+    }
+    assert!(disagreements > 100, "faces whose snapped sign is not their orientation: {disagreements}");
 }
