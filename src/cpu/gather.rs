@@ -14,8 +14,14 @@ use crate::scene::mesh::Topology;
 /// that starts at `+0.0` changes no bit. So scattering the candidates' slots in edge order gives
 /// the same bits, deterministically, in time proportional to the number of candidates.
 pub fn gather(topology: &Topology, candidates: &[(u32, i32)], slots: &[EdgeGrad], grads: &mut [Vec2]) {
-    let edges = topology.edges();
     grads.fill(Vec2::ZERO);
+    scatter(topology, candidates, slots, grads);
+}
+
+/// [`gather`] into `grads` that hold zeros already (a buffer just allocated zeroed): adds the
+/// candidates' slots in edge order.
+pub(crate) fn scatter(topology: &Topology, candidates: &[(u32, i32)], slots: &[EdgeGrad], grads: &mut [Vec2]) {
+    let edges = topology.edges();
     for (&(e, _), slot) in candidates.iter().zip(slots) {
         let [a, b] = edges[e as usize];
         grads[a as usize] += Vec2::from(slot.a);

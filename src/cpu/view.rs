@@ -92,6 +92,6 @@ pub fn backward_view(
         &mut scratch.edge_grad,
     );
     let mut grads = vec![Vec2::ZERO; topology.vertex_count()];
-    gather::gather(topology, &state.candidates, &scratch.slots, &mut grads);
+    gather::scatter(topology, &state.candidates, &scratch.slots, &mut grads);
     (grads, stats)
 }
