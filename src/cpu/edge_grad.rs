@@ -83,13 +83,32 @@ fn edge_geometry(screen: &[ScreenVertex], edge: [u32; 2], inside: i32) -> Option
 /// Appends the segments of `va → vb` in the pixels it crosses with a non-zero `∂L/∂I`, in walk
 /// order: the rows it spans, then the columns within each row, each clipped by Liang–Barsky.
 fn edge_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, out: &mut Vec<Segment>) {
+    let (w, h) = (params.width as f64, params.height as f64);
+    let scale = (params.inside - params.outside) as f64;
+    // Most candidates lie inside one pixel, off its borders: then the walk below finds one
+    // segment, the whole edge (every clip leaves `(0, 1)`: the ends are strictly inside, and a
+    // parameter whose exact value lies beyond 0 or 1 does not round inside), and it is found here.
+    let (lo, hi) = (va.min(vb), va.max(vb));
+    let (i, j) = (floor(lo.y), floor(lo.x));
+    if lo.y > i && lo.x > j && hi.y < i + 1.0 && hi.x < j + 1.0 && i >= 0.0 && j >= 0.0 && i < h && j < w {
+        let g = d_image[i as usize * params.width as usize + j as usize] as f64 * scale;
+        if g != 0.0 {
+            out.push(Segment { s: (0.0, 1.0), g });
+        }
+        return;
+    }
+    walk_segments(params, d_image, va, vb, out);
+}
+
+/// [`edge_segments`] by the walk: the rows the edge spans, then the columns within each row.
+fn walk_segments(params: &RasterParams, d_image: &[f32], va: DVec2, vb: DVec2, out: &mut Vec<Segment>) {
     let d = vb - va;
     let (w, h) = (params.width as f64, params.height as f64);
+    let scale = (params.inside - params.outside) as f64;
     let mut s = (0.0, 1.0);
     if !(clip_parameter(va.x, d.x, 0.0, w, &mut s) && clip_parameter(va.y, d.y, 0.0, h, &mut s)) {
         return;
     }
-    let scale = (params.inside - params.outside) as f64;
     let y_at = |t: f64| va.y + t * d.y;
     let (ylo, yhi) = (y_at(s.0).min(y_at(s.1)), y_at(s.0).max(y_at(s.1)));
     let rows = (ceil(ylo) as i64 - 1).max(0)..=(floor(yhi) as i64).min(params.height as i64 - 1);

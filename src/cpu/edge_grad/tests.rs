@@ -315,3 +315,41 @@ fn inline_floor_and_ceil_equal_the_standard_ones() {
     }
     assert!(floor(f64::NAN).is_nan() && ceil(f64::NAN).is_nan());
 }
+
+/// The one-pixel shortcut of [`edge_segments`] finds what the walk finds: edges inside a pixel,
+/// on its borders and corners (horizontal and vertical ones among them, whose segments on a
+/// border are halved), across pixels, partly or wholly off the image, over pixels with zero and
+/// non-zero `∂L/∂I`.
+#[test]
+fn one_pixel_segments_are_the_walks() {
+    let mut rng = crate::random::SplitMix64::new(11);
+    let params = RasterParams::new(7, 5, 4, 1.0, 0.0).unwrap();
+    let d_image: Vec<f32> = (0..35).map(|k| if k % 3 == 0 { 0.0 } else { rng.range(-1.0, 1.0) }).collect();
+    let (mut shortcut, mut walked) = (Vec::new(), Vec::new());
+    let mut inside = 0;
+    for case in 0..20_000 {
+        let snap = |x: f64| if case % 4 == 0 { (x * 4.0).round() / 4.0 } else { x };
+        let start = [snap(rng.range(-1.5, 8.5) as f64), snap(rng.range(-1.5, 6.5) as f64)];
+        let length = [0.05, 0.3, 1.0, 3.0][case % 4 / 2 + case % 3 % 2];
+        let mut d = [rng.range(-1.0, 1.0) as f64 * length, rng.range(-1.0, 1.0) as f64 * length];
+        match case % 7 {
+            0 => d[0] = 0.0,
+            1 => d[1] = 0.0,
+            _ => {}
+        }
+        let (va, vb) = (DVec2::from(start), DVec2::from(start) + DVec2::from(d));
+        if va == vb {
+            continue;
+        }
+        shortcut.clear();
+        walked.clear();
+        edge_segments(&params, &d_image, va, vb, &mut shortcut);
+        walk_segments(&params, &d_image, va, vb, &mut walked);
+        let same = shortcut.len() == walked.len()
+            && shortcut.iter().zip(&walked).all(|(a, b)| a.s.0 == b.s.0 && a.s.1 == b.s.1 && a.g == b.g);
+        assert!(same, "{va} → {vb}: {shortcut:?} against {walked:?}");
+        let (lo, hi) = (va.min(vb), va.max(vb));
+        inside += (lo.floor() == hi.floor() && walked.len() == 1) as u32;
+    }
+    assert!(inside > 1000, "edges inside one pixel with a gradient: {inside}");
+}
