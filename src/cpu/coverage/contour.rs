@@ -40,7 +40,7 @@ use super::triangle::floor_div;
 use crate::cpu::edges::edge_side;
 use crate::mirror::{RasterParams, ScreenVertex};
 use crate::scene::mesh::Topology;
-use faces::FacePass;
+use faces::{code_sign, FacePass};
 
 /// Edges from which the pass over the edges runs in two halves side by side.
 const PARALLEL_EDGES: usize = 32768;
@@ -51,7 +51,8 @@ const PARALLEL_CROSSINGS: usize = 16384;
 /// The buffers of [`coverage`], kept from forward to forward.
 #[derive(Clone, Debug, Default)]
 pub struct ContourScratch {
-    /// The sign of every face's snapped area (0: a clipped vertex or zero area).
+    /// The sign of every face's snapped area (0: a clipped vertex or zero area), with its float
+    /// orientation in [`coverage_and_edges`] (`faces::face_code`).
     signs: Vec<i8>,
     /// Crossings in the order the edges produce them (of the first half of the edges when the
     /// edge pass is split in two).
@@ -178,7 +179,8 @@ pub(crate) fn wing_weights(f: i8, g: i8) -> (i32, i32) {
 }
 
 /// The weights `(w₊, w)` (see the module's notes) of edge `e`, whose faces are not two that run
-/// it opposite ways (those are in the fast path of the pass over the edges), from its faces' signs.
+/// it opposite ways (those are in the fast path of the pass over the edges), from its faces' signs
+/// (or codes, `faces::face_code`).
 pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32, i32) {
     let range = topology.edge_face_offsets()[e] as usize..topology.edge_face_offsets()[e + 1] as usize;
     let faces = &topology.edge_face_list()[range.clone()];
@@ -186,7 +188,7 @@ pub(crate) fn edge_weights(topology: &Topology, signs: &[i8], e: usize) -> (i32,
     let (mut positive, mut net) = (0, 0);
     for (&face, &forward) in faces.iter().zip(forward) {
         let dir = if forward { 1 } else { -1 };
-        let s = signs[face as usize] as i32;
+        let s = code_sign(signs[face as usize]) as i32;
         positive += dir * (s > 0) as i32;
         net += dir * (s != 0) as i32;
     }
@@ -258,6 +260,7 @@ struct EdgePass<'a> {
     grid: RowGrid,
     snapped: &'a [[i32; 2]],
     topology: &'a Topology,
+    /// The faces' snapped signs, or with `CANDIDATES` their codes (`faces::face_code`).
     signs: &'a [i8],
     /// The faces' orientations (read only for the candidates).
     orientation: &'a [i8],
@@ -280,8 +283,12 @@ impl EdgePass<'_> {
             let weights = if f != u32::MAX {
                 // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel (most
                 // edges: inside the silhouette or behind it); it is a candidate exactly when the
-                // orientations differ (see `edges`).
-                let (sf, sg) = (signs[f as usize], signs[g as usize]);
+                // orientations differ (see `edges`). Equal codes: neither.
+                let (cf, cg) = (signs[f as usize], signs[g as usize]);
+                if cf == cg {
+                    continue;
+                }
+                let (sf, sg) = (code_sign(cf), code_sign(cg));
                 if CANDIDATES {
                     let (of, og) = (orientation[f as usize], orientation[g as usize]);
                     if of != og {

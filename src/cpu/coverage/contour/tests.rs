@@ -304,3 +304,21 @@ fn orientations_of_near_degenerate_faces_follow_the_floats() {
     }
     assert!(disagreements > 100, "faces whose snapped sign is not their orientation: {disagreements}");
 }
+
+/// A face's code keeps its sign and its orientation apart: distinct codes for distinct pairs,
+/// the sign read back from each, the sign itself where the two agree.
+#[test]
+fn face_codes_keep_sign_and_orientation() {
+    use super::faces::{code_sign, face_code};
+    let mut seen = std::collections::HashSet::new();
+    for s in -1..=1i8 {
+        for o in -1..=1i8 {
+            let code = face_code(s, o);
+            assert_eq!(code_sign(code), s, "({s}, {o})");
+            assert!(seen.insert(code), "({s}, {o}) shares its code {code}");
+            if s == o {
+                assert_eq!(code, s);
+            }
+        }
+    }
+}
