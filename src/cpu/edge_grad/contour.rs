@@ -79,6 +79,9 @@ pub struct ContourBands {
     order: Vec<u64>,
     /// The band lists, one after the other.
     entries: Vec<ContourEdge>,
+    /// Each entry's `lo.x`, the key the searches of a band list read (beside the entries, so a
+    /// search touches a few cache lines rather than one per probe).
+    keys: Vec<f32>,
     /// `offsets[k]..offsets[k + 1]` indexes `entries` for band `k`, sorted by `lo.x`.
     offsets: Vec<u32>,
     /// The widest box of each band (`hi.x − lo.x`, rounded up a little): an entry whose `lo.x`
@@ -156,6 +159,7 @@ impl ContourBands {
         let total = self.offsets[self.bands as usize] as usize;
         // Every entry is written below: resizing keeps old values without rewriting them.
         self.entries.resize(total, EMPTY);
+        self.keys.resize(total, 0.0);
         let next = &mut self.next;
         next.clear();
         next.extend_from_slice(&self.offsets);
@@ -170,6 +174,7 @@ impl ContourBands {
             let c = &self.edges[i];
             for k in c.first_band..=self.last_bands[i] {
                 self.entries[next[k as usize] as usize] = *c;
+                self.keys[next[k as usize] as usize] = c.lo.x;
                 next[k as usize] += 1;
                 self.widths[k as usize] = self.widths[k as usize].max(c.hi.x as f64 - c.lo.x as f64);
             }
@@ -185,13 +190,14 @@ impl ContourBands {
         band_of(self.per_pixel, self.bands, y)
     }
 
-    /// The band list `k` and the index of its first entry whose box may reach `x` or further
-    /// right (every entry before it ends left of `x`).
-    fn list(&self, k: u32, x: f64) -> (&[ContourEdge], usize) {
-        let list = &self.entries[self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize];
+    /// The band list `k`, its entries' keys (`lo.x`), and the index of its first entry whose box
+    /// may reach `x` or further right (every entry before it ends left of `x`).
+    fn list(&self, k: u32, x: f64) -> (&[ContourEdge], &[f32], usize) {
+        let range = self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize;
+        let (list, keys) = (&self.entries[range.clone()], &self.keys[range]);
         let bound = x - self.widths[k as usize];
         let bound = bound - 1e-12 * bound.abs();
-        (list, list.partition_point(|c| (c.lo.x as f64) < bound))
+        (list, keys, keys.partition_point(|&key| (key as f64) < bound))
     }
 
     /// What the visible parts of candidate edge `e` (`va → vb`, outward normal `outward`) follow
@@ -215,8 +221,8 @@ impl ContourBands {
         out.crossings.clear();
         out.yielded.clear();
         for k in first..=last {
-            let (list, reach) = self.list(k, lo.x);
-            let end = list.partition_point(|c| c.lo.x as f64 <= hi.x);
+            let (list, keys, reach) = self.list(k, lo.x);
+            let end = keys.partition_point(|&key| key as f64 <= hi.x);
             for c in &list[reach.min(end)..end] {
                 // An edge listed in several of these bands is tested in the first one.
                 if c.first_band.max(first) != k
@@ -246,8 +252,8 @@ impl ContourBands {
         }
         // The sums at the start: a ray cast to the left or to the right of it, whichever meets
         // fewer entries of its band.
-        let (list, reach) = self.list(start_band, va.x);
-        let left = list.partition_point(|c| c.lo.x as f64 <= va.x);
+        let (list, keys, reach) = self.list(start_band, va.x);
+        let left = keys.partition_point(|&key| key as f64 <= va.x);
         let (mut positive, mut net) = (0, 0);
         if left <= list.len() - reach {
             for c in &list[..left] {
