@@ -351,7 +351,9 @@ fn ray_crossing(c: &ContourEdge, va: DVec2, d: DVec2, n: DVec2, ray: Ray) -> i32
     let (ca, cb) = (c.a.as_dvec2(), c.b.as_dvec2());
     let u = cb - ca;
     // > 0: p lies left of a downward edge, right of an upward one.
-    let side = sign3(cross(u, va - ca), cross(u, d), cross(u, n));
+    // The δ and ε terms only where the exact one vanishes (a point on the contour edge's line).
+    let exact = cross(u, va - ca);
+    let side = if exact != 0.0 { sign3(exact, 0.0, 0.0) } else { sign3(0.0, cross(u, d), cross(u, n)) };
     let wanted = if a_le == (ray == Ray::Right) { side > 0 } else { side < 0 };
     if a_le {
         wanted as i32
