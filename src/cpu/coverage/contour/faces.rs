@@ -224,6 +224,6 @@ pub(super) fn face_code(s: i8, o: i8) -> i8 {
 /// The snapped sign of a [`face_code`] (the code is `s` modulo 4, and `s + 1` is 0, 1 or 2): the
 /// sign itself for a byte that holds a sign (−1, 0 or 1).
 #[inline(always)]
-pub(crate) fn code_sign(code: i8) -> i8 {
+pub(super) fn code_sign(code: i8) -> i8 {
     ((code + 1) & 3) - 1
 }
