@@ -122,8 +122,9 @@ impl FacePass<'_> {
         let mut sign = [0i8; BLOCK];
         // Whether every lane's float orientation is its snapped sign ([`OrientationBound`]).
         let mut decided = false;
+        // Per lane: whether its float orientation is its snapped sign.
+        let mut lanes = [false; BLOCK];
         if wide.iter().all(|&w| w == 0) {
-            let mut lanes = [false; BLOCK];
             let bound = OrientationBound::new(*reach.iter().max().expect("a block has lanes"));
             for l in 0..BLOCK {
                 let area2 = ax[l] as f64 * by[l] as f64 - ay[l] as f64 * bx[l] as f64;
@@ -148,20 +149,15 @@ impl FacePass<'_> {
         if ORIENT && decided {
             orientation.copy_from_slice(&sign[..n]);
         } else if ORIENT {
-            // The float orientation of `face_orientation`, lane by lane; a vertex is clipped
-            // exactly when its snapped position is the invalid one (the snap of a clipped screen
-            // vertex).
-            let (mut fx, mut fy) = ([[0f32; BLOCK]; 3], [[0f32; BLOCK]; 3]);
+            // The float orientation of `face_orientation` for the lanes the bound leaves open (the
+            // others have their sign's); a vertex is clipped exactly when its snapped position is
+            // the invalid one (the snap of a clipped screen vertex).
+            let mut o = sign;
             for (l, t) in tris.iter().enumerate() {
-                for k in 0..3 {
-                    let q = self.screen[t[k] as usize].position;
-                    (fx[k][l], fy[k][l]) = (q[0], q[1]);
+                if !lanes[l] {
+                    let [p0, p1, p2] = t.map(|v| self.screen[v as usize].position);
+                    o[l] = orientation_sign(p0, p1, p2) * valid[l] as i8;
                 }
-            }
-            let mut o = [0i8; BLOCK];
-            for l in 0..BLOCK {
-                let (p0, p1, p2) = ([fx[0][l], fy[0][l]], [fx[1][l], fy[1][l]], [fx[2][l], fy[2][l]]);
-                o[l] = orientation_sign(p0, p1, p2) * valid[l] as i8;
             }
             orientation.copy_from_slice(&o[..n]);
             // The codes where a sign and its orientation may differ (elsewhere the code is the sign).
