@@ -80,6 +80,10 @@ impl Engine for CpuEngine {
         "cpu".into()
     }
 
+    fn uses_thread_pool(&self) -> bool {
+        true
+    }
+
     fn forward(&mut self, topology: &Arc<Topology>, params: &[RasterParams], input: ViewInput<'_>) -> Result<Rendered> {
         // The views are independent: they run side by side (each parallel inside too), and come
         // back in order.

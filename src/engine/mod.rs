@@ -95,6 +95,12 @@ pub(crate) trait Engine: Send {
     /// A one-line description for logs: `cpu`, or `gpu: <adapter>`.
     fn describe(&self) -> String;
 
+    /// Whether the engine's stages run their loops on rayon's thread pool (the renderer then
+    /// calls them from a thread of the pool: `render/pool.rs`).
+    fn uses_thread_pool(&self) -> bool {
+        false
+    }
+
     /// The GPU adapter, for a GPU engine.
     #[cfg(feature = "gpu")]
     fn adapter(&self) -> Option<&crate::gpu::AdapterReport> {

@@ -188,6 +188,11 @@ impl Renderer {
     /// [`Arc::ptr_eq`], make the meshes with [`Mesh::with_topology`]), and whatever
     /// [`Renderer::render`] rejects for an instance.
     pub fn render_batch(&mut self, instances: &[Instance<'_>]) -> Result<BatchFrame> {
+        self.on_pool(|r| r.render_batch_impl(instances))
+    }
+
+    /// [`Renderer::render_batch`] on the calling thread.
+    fn render_batch_impl(&mut self, instances: &[Instance<'_>]) -> Result<BatchFrame> {
         let batch = Prepared::new(self, instances)?;
         let (images, stats, state) = if batch.clipped {
             let frames = instances.iter().map(|i| self.render(i.mesh, i.cameras)).collect::<Result<Vec<_>>>()?;
@@ -243,6 +248,11 @@ impl Renderer {
     /// than its view ([`Error::SizeMismatch`]) or with a non-finite value, and a frame rendered
     /// by the other engine ([`Error::InvalidFrame`]).
     pub fn backward_batch(&mut self, frame: &BatchFrame, d_images: &[Vec<Image>]) -> Result<Vec<Vec<Vec3>>> {
+        self.on_pool(|r| r.backward_batch_impl(frame, d_images))
+    }
+
+    /// [`Renderer::backward_batch`] on the calling thread.
+    fn backward_batch_impl(&mut self, frame: &BatchFrame, d_images: &[Vec<Image>]) -> Result<Vec<Vec<Vec3>>> {
         if d_images.len() != frame.instance_count() {
             return Err(Error::LengthMismatch {
                 what: "image gradients of a batch (one list per instance)",
@@ -353,6 +363,11 @@ impl Renderer {
     /// ([`Error::ViewCountMismatch`]), and a target of another size than its camera's image
     /// ([`Error::SizeMismatch`]).
     pub fn squared_error_step_batch(&mut self, instances: &[Instance<'_>], targets: &[&Targets]) -> Result<Vec<Step>> {
+        self.on_pool(|r| r.squared_error_step_batch_impl(instances, targets))
+    }
+
+    /// [`Renderer::squared_error_step_batch`] on the calling thread.
+    fn squared_error_step_batch_impl(&mut self, instances: &[Instance<'_>], targets: &[&Targets]) -> Result<Vec<Step>> {
         if targets.len() != instances.len() {
             return Err(Error::LengthMismatch {
                 what: "targets of a batch (one set per instance)",

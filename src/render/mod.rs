@@ -6,6 +6,7 @@ pub mod batch;
 mod clip;
 mod frame;
 pub mod params;
+mod pool;
 mod settings;
 mod step;
 mod views;
@@ -161,6 +162,11 @@ impl Renderer {
     /// ([`RenderStats::clipped_triangles`]); a view with such triangles is rendered by an engine
     /// call of its own, and then so is every other view of the call.
     pub fn render(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
+        self.on_pool(|r| r.render_impl(mesh, cameras))
+    }
+
+    /// [`Renderer::render`] on the calling thread.
+    fn render_impl(&mut self, mesh: &Mesh, cameras: &[Camera]) -> Result<Frame> {
         let (views, params) = views::world_views(&self.settings, cameras)?;
         let clips = views::clip_views(&views, mesh, &mut self.clip_topologies)?;
         if clips.iter().all(Option::is_none) {
@@ -210,6 +216,11 @@ impl Renderer {
 
     /// Renders views given directly in screen space (a custom projection, or a 2D problem).
     pub fn render_screen(&mut self, topology: &Arc<Topology>, views: &[ScreenView]) -> Result<Frame> {
+        self.on_pool(|r| r.render_screen_impl(topology, views))
+    }
+
+    /// [`Renderer::render_screen`] on the calling thread.
+    fn render_screen_impl(&mut self, topology: &Arc<Topology>, views: &[ScreenView]) -> Result<Frame> {
         let (params, screens) = views::screen_views(&self.settings, topology, views)?;
         let rendered = self.engine.forward(topology, &params, ViewInput::Screen(&screens))?;
         Ok(Frame {
@@ -229,6 +240,11 @@ impl Renderer {
     /// ([`RenderStats::clipped_triangles`] > 0) has no per-vertex screen gradient there (clipping
     /// added vertices): that is an [`Error::InvalidFrame`]; use [`Renderer::backward`].
     pub fn backward_screen(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec<Vec2>>> {
+        self.on_pool(|r| r.backward_screen_impl(frame, d_images))
+    }
+
+    /// [`Renderer::backward_screen`] on the calling thread.
+    fn backward_screen_impl(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec<Vec2>>> {
         if frame.parts.is_some() {
             let view = frame.stats.iter().position(|s| s.clipped_triangles > 0).unwrap_or(0);
             return Err(Error::InvalidFrame(format!(
@@ -254,6 +270,11 @@ impl Renderer {
     /// The frame must come from [`Renderer::render`]. Vertices added by clipping pass their
     /// gradient to the two mesh vertices of the edge they lie on.
     pub fn backward(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec3>> {
+        self.on_pool(|r| r.backward_impl(frame, d_images))
+    }
+
+    /// [`Renderer::backward`] on the calling thread.
+    fn backward_impl(&mut self, frame: &Frame, d_images: &[Image]) -> Result<Vec<Vec3>> {
         let Source::World { positions, views } = &frame.source else {
             return Err(Error::InvalidFrame(
                 "this frame was rendered from screen-space vertices: use backward_screen".into(),

@@ -102,6 +102,11 @@ impl Renderer {
     /// of another size than its camera's image ([`Error::SizeMismatch`]), and whatever
     /// [`Renderer::render`] rejects.
     pub fn squared_error_step(&mut self, mesh: &Mesh, cameras: &[Camera], targets: &Targets) -> Result<Step> {
+        self.on_pool(|r| r.squared_error_step_impl(mesh, cameras, targets))
+    }
+
+    /// [`Renderer::squared_error_step`] on the calling thread.
+    fn squared_error_step_impl(&mut self, mesh: &Mesh, cameras: &[Camera], targets: &Targets) -> Result<Step> {
         if targets.images.len() != cameras.len() {
             return Err(Error::ViewCountMismatch { what: "targets", views: cameras.len(), got: targets.images.len() });
         }
