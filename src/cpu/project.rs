@@ -65,9 +65,40 @@ pub const LANES: usize = 8;
 /// Vertices per parallel task of [`project_and_snap`] (fewer run in the calling thread).
 const VERTICES_PER_TASK: usize = 16384;
 
-/// [`project_and_snap`] for one task's vertices, block by block; the last, short block is padded
-/// with copies of its last vertex, whose results are not written.
+/// [`project_and_snap`] for one task's vertices: [`project_chunk_avx2`] where the processor has
+/// AVX2, else [`project_chunk_any`] (the same bits: `cpu/isa.rs`).
 fn project_chunk<const PERSPECTIVE: bool>(
+    view: &ViewParams,
+    params: &RasterParams,
+    positions: &[Vec3],
+    screen: &mut [ScreenVertex],
+    snapped: &mut [[i32; 2]],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if super::isa::has_avx2() {
+        // SAFETY: the processor runs AVX2.
+        return unsafe { project_chunk_avx2::<PERSPECTIVE>(view, params, positions, screen, snapped) };
+    }
+    project_chunk_any::<PERSPECTIVE>(view, params, positions, screen, snapped)
+}
+
+/// [`project_chunk_any`] compiled with AVX2; only for a processor that has it.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn project_chunk_avx2<const PERSPECTIVE: bool>(
+    view: &ViewParams,
+    params: &RasterParams,
+    positions: &[Vec3],
+    screen: &mut [ScreenVertex],
+    snapped: &mut [[i32; 2]],
+) {
+    project_chunk_any::<PERSPECTIVE>(view, params, positions, screen, snapped)
+}
+
+/// [`project_and_snap`] for one task's vertices on any processor, block by block; the last,
+/// short block is padded with copies of its last vertex, whose results are not written.
+#[inline(always)]
+fn project_chunk_any<const PERSPECTIVE: bool>(
     view: &ViewParams,
     params: &RasterParams,
     positions: &[Vec3],
@@ -218,5 +249,49 @@ mod tests {
             }
         }
         assert!(kinds.iter().all(|&k| k > 0), "every kind of vertex occurs: {kinds:?}");
+    }
+
+    /// The pass compiled with AVX2 gives the portable pass's bits (the other tests run whichever
+    /// the processor takes: AVX2 on most x86-64 machines, so this is where the portable one is
+    /// checked there).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_pass_gives_the_portable_bits() {
+        if !crate::cpu::isa::has_avx2() {
+            eprintln!("this processor has no AVX2: nothing to compare");
+            return;
+        }
+        let mut rng = Rng::new(11);
+        for perspective in [true, false] {
+            let view = view(perspective);
+            for f in [1, 3, 4, 16] {
+                let params = RasterParams::new(64, 36, f, 1.0, 0.0).unwrap();
+                for n in (0..=2 * LANES + 1).chain([1000]) {
+                    let positions = points(&mut rng, n);
+                    let run = |avx2: bool| {
+                        let (mut screen, mut snapped) = (vec![ScreenVertex::default(); n], vec![[0; 2]; n]);
+                        match (avx2, perspective) {
+                            // SAFETY: the processor runs AVX2 (checked above).
+                            (true, true) => unsafe {
+                                project_chunk_avx2::<true>(&view, &params, &positions, &mut screen, &mut snapped)
+                            },
+                            (true, false) => unsafe {
+                                project_chunk_avx2::<false>(&view, &params, &positions, &mut screen, &mut snapped)
+                            },
+                            (false, true) => {
+                                project_chunk_any::<true>(&view, &params, &positions, &mut screen, &mut snapped)
+                            }
+                            (false, false) => {
+                                project_chunk_any::<false>(&view, &params, &positions, &mut screen, &mut snapped)
+                            }
+                        }
+                        let screen: Vec<_> =
+                            screen.iter().map(|v| (v.position.map(f32::to_bits), v.valid, v.pad)).collect();
+                        (screen, snapped)
+                    };
+                    assert_eq!(run(true), run(false), "{n} vertices, F = {f}, perspective {perspective}");
+                }
+            }
+        }
     }
 }

@@ -46,8 +46,37 @@ impl FacePass<'_> {
         }
     }
 
-    /// [`FacePass::run`] of one task's faces, in blocks of eight.
+    /// [`FacePass::run`] of one task's faces: [`FacePass::chunk_avx2`] where the processor has
+    /// AVX2, else [`FacePass::chunk_any`] (the same bits: `cpu/isa.rs`).
     fn chunk<const ORIENT: bool>(
+        &self,
+        triangles: &[[u32; 3]],
+        signs: &mut [i8],
+        orientation: &mut [i8],
+    ) -> TriangleSummary {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::isa::has_avx2() {
+            // SAFETY: the processor runs AVX2.
+            return unsafe { self.chunk_avx2::<ORIENT>(triangles, signs, orientation) };
+        }
+        self.chunk_any::<ORIENT>(triangles, signs, orientation)
+    }
+
+    /// [`FacePass::chunk_any`] compiled with AVX2; only for a processor that has it.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn chunk_avx2<const ORIENT: bool>(
+        &self,
+        triangles: &[[u32; 3]],
+        signs: &mut [i8],
+        orientation: &mut [i8],
+    ) -> TriangleSummary {
+        self.chunk_any::<ORIENT>(triangles, signs, orientation)
+    }
+
+    /// [`FacePass::run`] of one task's faces, in blocks of eight, for any processor.
+    #[inline(always)]
+    pub(super) fn chunk_any<const ORIENT: bool>(
         &self,
         triangles: &[[u32; 3]],
         signs: &mut [i8],

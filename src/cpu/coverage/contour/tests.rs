@@ -322,3 +322,62 @@ fn face_codes_keep_sign_and_orientation() {
         }
     }
 }
+
+/// The face pass compiled with AVX2 gives the portable pass's bits (the other tests run whichever
+/// the processor takes), with and without the orientations: faces of every size (blocks on the
+/// f64 path and on the i64 one), slivers whose float orientation the bound leaves open, clipped
+/// vertices, and short last blocks.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_avx2_face_pass_gives_the_portable_bits() {
+    if !crate::cpu::isa::has_avx2() {
+        eprintln!("this processor has no AVX2: nothing to compare");
+        return;
+    }
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
+    let mut rand = move || next();
+    let params = RasterParams::new(32, 24, 4, 1.0, 0.0).unwrap();
+    let mut disagreements = 0;
+    for n in (0..=2 * BLOCK + 1).chain([1000, 4003]) {
+        let mut screen = Vec::new();
+        for k in 0..n {
+            let magnitude = [10.0, 1e3, 1e5, 0.9 * COORD_LIMIT as f64][k / BLOCK % 4];
+            let centre = [(rand() - 0.5) * 2.0 * magnitude, (rand() - 0.5) * 2.0 * magnitude];
+            // Slivers, faces as large as their distance from the image (wide differences at
+            // the largest magnitude: the i64 path), and faces of a few pixels.
+            let size = [1e-3, magnitude * (0.1 + rand()), 50.0 * (0.1 + rand())][k % 3];
+            let (t, off) = (rand(), if k % 3 == 0 { (rand() - 0.5) * 1e-4 } else { size * (rand() - 0.5) });
+            let corners = [
+                centre,
+                [centre[0] + size, centre[1] + 0.7 * size],
+                [centre[0] + t * size - off, centre[1] + t * 0.7 * size + off],
+            ];
+            for (c, q) in corners.iter().enumerate() {
+                let valid = !(k % 11 == 5 && c == k % 3);
+                screen.push(ScreenVertex { position: q.map(|x| x as f32), valid: valid as u32, pad: 0 });
+            }
+        }
+        let snapped: Vec<[i32; 2]> = screen.iter().map(|v| params.snap_vertex(v)).collect();
+        let triangles: Vec<[u32; 3]> = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let faces = FacePass { snapped: &snapped, screen: &screen, limit: 1 << 20 };
+        for orient in [true, false] {
+            let run = |avx2: bool| {
+                let (mut signs, mut orientation) = (vec![9i8; n], vec![9i8; if orient { n } else { 0 }]);
+                let summary = match (avx2, orient) {
+                    // SAFETY: the processor runs AVX2 (checked above).
+                    (true, true) => unsafe { faces.chunk_avx2::<true>(&triangles, &mut signs, &mut orientation) },
+                    (true, false) => unsafe { faces.chunk_avx2::<false>(&triangles, &mut signs, &mut []) },
+                    (false, true) => faces.chunk_any::<true>(&triangles, &mut signs, &mut orientation),
+                    (false, false) => faces.chunk_any::<false>(&triangles, &mut signs, &mut []),
+                };
+                (signs, orientation, summary)
+            };
+            let (avx2, any) = (run(true), run(false));
+            assert_eq!(avx2, any, "{n} faces, orientations {orient}");
+            if orient {
+                disagreements += any.0.iter().zip(&any.1).filter(|(s, o)| s != o).count();
+            }
+        }
+    }
+    assert!(disagreements > 10, "faces whose code is not their orientation: {disagreements}");
+}
