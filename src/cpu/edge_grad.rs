@@ -31,12 +31,9 @@ fn position(screen: &[ScreenVertex], v: u32) -> DVec2 {
 #[inline]
 fn floor(x: f64) -> f64 {
     if x.abs() < 4_503_599_627_370_496.0 {
+        // Branch-free: whether the truncation rounded up is as often yes as no.
         let t = x as i64 as f64;
-        if t > x {
-            t - 1.0
-        } else {
-            t
-        }
+        t - (t > x) as u8 as f64
     } else {
         x.floor()
     }

@@ -32,7 +32,6 @@
 
 use glam::{DVec2, Vec2};
 
-use super::floor;
 use crate::cpu::coverage::contour::{edge_weights, wing_weights};
 use crate::cpu::edges::edge_side;
 use crate::mirror::ScreenVertex;
@@ -143,19 +142,25 @@ impl ContourBands {
         self.per_pixel = 1.0 / height;
         self.bands = ((image_height as f64 * self.per_pixel).ceil() as u32).max(1);
         self.offsets.clear();
-        self.offsets.resize(self.bands as usize + 1, 0);
+        self.offsets.resize(self.bands as usize + 2, 0);
         self.last_bands.clear();
+        // Each edge adds 1 from its first band's count to its last's: `+1` and `−1` at the ends
+        // here, summed into counts below (branch-free per edge), then into list starts.
         for c in &mut self.edges {
             c.first_band = band_of(self.per_pixel, self.bands, c.lo.y as f64);
             let last = band_of(self.per_pixel, self.bands, c.hi.y as f64);
             self.last_bands.push(last);
-            for k in c.first_band..=last {
-                self.offsets[k as usize + 1] += 1;
+            // (Wrapping: a slot may go below zero before its sums.)
+            let (start, end) = (c.first_band as usize + 1, last as usize + 2);
+            self.offsets[start] = self.offsets[start].wrapping_add(1);
+            self.offsets[end] = self.offsets[end].wrapping_sub(1);
+        }
+        for _ in 0..2 {
+            for k in 0..self.bands as usize {
+                self.offsets[k + 1] = self.offsets[k + 1].wrapping_add(self.offsets[k]);
             }
         }
-        for k in 0..self.bands as usize {
-            self.offsets[k + 1] += self.offsets[k];
-        }
+        self.offsets.truncate(self.bands as usize + 1);
         let total = self.offsets[self.bands as usize] as usize;
         // Every entry is written below: resizing keeps old values without rewriting them.
         self.entries.resize(total, EMPTY);
@@ -294,7 +299,10 @@ const EMPTY: ContourEdge = ContourEdge {
 /// The band of `bands` (`per_pixel` per pixel) holding height `y`, the first for every `y`
 /// above the image and the last for every one below it. Monotonic in `y`.
 fn band_of(per_pixel: f64, bands: u32, y: f64) -> u32 {
-    floor(y * per_pixel).clamp(0.0, (bands - 1) as f64) as u32
+    // Clamped first, then truncated: for a value in [0, bands − 1] truncation is the floor, and
+    // a NaN gives band 0 either way. Branch-free (the counts and fill of `build` call it twice
+    // per contour edge, at unpredictable heights).
+    (y * per_pixel).max(0.0).min((bands - 1) as f64) as u32
 }
 
 /// A key whose unsigned order is the order of the f32 `x` (for every non-NaN `x`; `-0.0` before
@@ -468,6 +476,69 @@ mod tests {
         values.push(f32::INFINITY);
         for pair in values.windows(2) {
             assert!(x_key(pair[0]) < x_key(pair[1]), "{} {}", pair[0], pair[1]);
+        }
+    }
+
+    /// [`band_of`] is the floor of `y · per_pixel` clamped to the bands, for heights inside,
+    /// above and below the image, on band boundaries, and not finite.
+    #[test]
+    fn band_of_is_the_clamped_floor() {
+        let mut rng = crate::random::SplitMix64::new(3);
+        for (per_pixel, bands) in [(1.0, 16), (4.0, 256), (1.0 / 64.0, 1), (256.0, 65536)] {
+            let mut heights: Vec<f64> = (0..2000).map(|_| rng.range(-40.0, 1200.0) as f64).collect();
+            heights.extend((0..=bands + 1).map(|k| k as f64 / per_pixel));
+            heights.extend([-0.0, -1e-300, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::NAN]);
+            for y in heights {
+                let floor = (y * per_pixel).floor();
+                let expected = if floor.is_nan() { 0 } else { floor.clamp(0.0, (bands - 1) as f64) as u32 };
+                assert_eq!(band_of(per_pixel, bands, y), expected, "y = {y}, {bands} bands of {per_pixel} per pixel");
+            }
+        }
+    }
+
+    /// Each band lists exactly the contour edges whose heights meet it, in the order of `lo.x`
+    /// (then of the contour's order), with their keys: triangle soups and meshes reaching far
+    /// above and below the image.
+    #[test]
+    fn band_lists_hold_the_edges_meeting_each_band() {
+        let mut rng = crate::random::SplitMix64::new(5);
+        for case in 0..12 {
+            let (n, height) = ([3, 50, 800][case % 3], [16u32, 64, 200][case / 3 % 3]);
+            let h = height as f32;
+            let screen: Vec<ScreenVertex> = (0..3 * n)
+                .map(|_| ScreenVertex {
+                    position: [rng.range(-10.0, 80.0), rng.range(-0.5 * h, 1.5 * h)],
+                    valid: 1,
+                    pad: 0,
+                })
+                .collect();
+            let triangles = (0..n as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+            let topology = Topology::new(3 * n, triangles).unwrap();
+            let mut orientation = vec![0i8; n];
+            crate::cpu::edges::face_orientations(&screen, topology.triangles(), &mut orientation);
+            let mut candidates = Vec::new();
+            crate::cpu::edges::edges(&orientation, &topology, &mut candidates);
+            let mut bands = ContourBands::default();
+            bands.build(&screen, &orientation, &topology, &candidates, height);
+            assert!(!bands.edges.is_empty(), "case {case}: a contour");
+            assert_eq!(bands.offsets.len(), bands.bands as usize + 1);
+            for k in 0..bands.bands {
+                let range = bands.offsets[k as usize] as usize..bands.offsets[k as usize + 1] as usize;
+                let mut expected: Vec<(u64, usize)> = (0..bands.edges.len())
+                    .filter(|&i| {
+                        let c = &bands.edges[i];
+                        let band = |y: f32| band_of(bands.per_pixel, bands.bands, y as f64);
+                        band(c.lo.y) <= k && k <= band(c.hi.y)
+                    })
+                    .map(|i| (x_key(bands.edges[i].lo.x), i))
+                    .collect();
+                expected.sort();
+                let listed: Vec<u32> = bands.entries[range.clone()].iter().map(|c| c.edge).collect();
+                let expected_edges: Vec<u32> = expected.iter().map(|&(_, i)| bands.edges[i].edge).collect();
+                assert_eq!(listed, expected_edges, "case {case}, band {k}");
+                let keys: Vec<f32> = expected.iter().map(|&(_, i)| bands.edges[i].lo.x).collect();
+                assert_eq!(&bands.keys[range], &keys[..], "case {case}, band {k}");
+            }
         }
     }
 }
