@@ -277,44 +277,61 @@ impl EdgePass<'_> {
     ) {
         crossings.clear();
         candidates.clear();
-        let (signs, orientation, topology) = (self.signs, self.orientation, self.topology);
-        let (edges, wings) = (&topology.edges()[range.clone()], &topology.edge_wings()[range.clone()]);
-        for (e, (&edge, &[f, g])) in range.zip(edges.iter().zip(wings)) {
-            let weights = if f != u32::MAX {
-                // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel (most
-                // edges: inside the silhouette or behind it); it is a candidate exactly when the
-                // orientations differ (see `edges`). Equal codes: neither.
-                let (cf, cg) = (signs[f as usize], signs[g as usize]);
-                if cf == cg {
-                    continue;
-                }
-                let (sf, sg) = (code_sign(cf), code_sign(cg));
-                if CANDIDATES {
-                    let (of, og) = (orientation[f as usize], orientation[g as usize]);
-                    if of != og {
-                        candidates.push((e as u32, (of as i32 - og as i32).signum()));
-                    }
-                }
-                if sf == sg {
-                    continue;
-                }
-                wing_weights(sf, sg)
-            } else {
-                if CANDIDATES {
-                    let side = edge_side(orientation, topology, e);
-                    if side != 0 {
-                        candidates.push((e as u32, side));
-                    }
-                }
-                match edge_weights(topology, signs, e) {
-                    (0, 0) => continue,
-                    weights => weights,
-                }
-            };
-            // A face with non-zero sign has valid vertices, so both ends are valid.
-            let [a, b] = edge.map(|v| self.snapped[v as usize]);
-            self.grid.push(a, b, weights, crossings);
+        let (signs, topology) = (self.signs, self.topology);
+        let wings = &topology.edge_wings()[range.clone()];
+        // The faces of most edges have equal codes (inside the silhouette or behind it): a
+        // branch-free first look marks, 64 edges at a time, those whose codes differ and the
+        // irregular ones (no two wings), and only those are read further.
+        let last_face = signs.len().saturating_sub(1) as u32;
+        for (block, wings) in wings.chunks(64).enumerate() {
+            let mut marked = 0u64;
+            for (i, &[f, g]) in wings.iter().enumerate() {
+                let (cf, cg) = (signs[f.min(last_face) as usize], signs[g.min(last_face) as usize]);
+                marked |= (((cf != cg) | (f == u32::MAX)) as u64) << i;
+            }
+            while marked != 0 {
+                let e = range.start + 64 * block + marked.trailing_zeros() as usize;
+                marked &= marked - 1;
+                self.edge::<CANDIDATES>(e, crossings, candidates);
+            }
         }
+    }
+
+    /// Edge `e`, whose faces' codes differ or which is irregular: its crossings and (with
+    /// `CANDIDATES`) whether it is a candidate.
+    #[inline(always)]
+    fn edge<const CANDIDATES: bool>(&self, e: usize, crossings: &mut Vec<Crossing>, candidates: &mut Vec<(u32, i32)>) {
+        let (signs, orientation, topology) = (self.signs, self.orientation, self.topology);
+        let [f, g] = topology.edge_wings()[e];
+        let weights = if f != u32::MAX {
+            // The usual edge: face f runs it a → b, face g b → a. Equal signs cancel; it is a
+            // candidate exactly when the orientations differ (see `edges`).
+            let (sf, sg) = (code_sign(signs[f as usize]), code_sign(signs[g as usize]));
+            if CANDIDATES {
+                let (of, og) = (orientation[f as usize], orientation[g as usize]);
+                if of != og {
+                    candidates.push((e as u32, (of as i32 - og as i32).signum()));
+                }
+            }
+            if sf == sg {
+                return;
+            }
+            wing_weights(sf, sg)
+        } else {
+            if CANDIDATES {
+                let side = edge_side(orientation, topology, e);
+                if side != 0 {
+                    candidates.push((e as u32, side));
+                }
+            }
+            match edge_weights(topology, signs, e) {
+                (0, 0) => return,
+                weights => weights,
+            }
+        };
+        // A face with non-zero sign has valid vertices, so both ends are valid.
+        let [a, b] = topology.edges()[e].map(|v| self.snapped[v as usize]);
+        self.grid.push(a, b, weights, crossings);
     }
 }
 
