@@ -33,7 +33,7 @@ pub mod edge_grad;
 pub mod edges;
 mod engine;
 pub mod gather;
-mod isa;
+pub(crate) mod isa;
 pub mod project;
 pub mod resolve;
 mod view;

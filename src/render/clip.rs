@@ -33,6 +33,44 @@ fn camera_space(view: &ViewParams, p: Vec3) -> Vec3 {
     Vec3::new(Vec4::from(view.row0).dot(h), Vec4::from(view.row1).dot(h), Vec4::from(view.row2).dot(h))
 }
 
+/// Whether every vertex's depth lies strictly between the near and far planes: eight vertices
+/// at a time, with AVX2 where the processor has it (`cpu/isa.rs`). The depth is `camera_space`'s
+/// (glam's grouping of the dot product, which `project` repeats), so the answer is the same.
+fn all_between_planes(view: &ViewParams, positions: &[Vec3]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::isa::has_avx2() {
+        // SAFETY: the processor runs AVX2.
+        return unsafe { all_between_planes_avx2(view, positions) };
+    }
+    all_between_planes_any(view, positions)
+}
+
+/// [`all_between_planes_any`] compiled with AVX2; only for a processor that has it.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn all_between_planes_avx2(view: &ViewParams, positions: &[Vec3]) -> bool {
+    all_between_planes_any(view, positions)
+}
+
+/// [`all_between_planes`] on any processor: each block of eight without branches, so the
+/// compiler vectorises it.
+#[inline(always)]
+fn all_between_planes_any(view: &ViewParams, positions: &[Vec3]) -> bool {
+    let r = view.row2;
+    let (near, far) = (view.near, view.far);
+    let inside = |p: &Vec3| {
+        let depth = -((r[0] * p.x + r[2] * p.z) + (r[1] * p.y + r[3]));
+        (depth > near) & (depth < far)
+    };
+    let mut blocks = positions.chunks_exact(8);
+    for block in &mut blocks {
+        if !block.iter().fold(true, |all, p| all & inside(p)) {
+            return false;
+        }
+    }
+    blocks.remainder().iter().all(inside)
+}
+
 /// Where a depth lies relative to the open range `(near, far)`.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Side {
@@ -143,11 +181,7 @@ impl ClipView {
     ) -> Result<Option<ClipView>> {
         // The common case, every vertex strictly between the planes: no triangle can need
         // clipping, and one pass over the vertices (no allocation) says so.
-        let inside = |p: Vec3| {
-            let d = -camera_space(view, p).z;
-            d > view.near && d < view.far
-        };
-        if positions.iter().all(|&p| inside(p)) {
+        if all_between_planes(view, positions) {
             return Ok(None);
         }
         let camera: Vec<Vec3> = positions.iter().map(|&p| camera_space(view, p)).collect();
@@ -315,4 +349,84 @@ impl ClipView {
 fn drops(view: &ViewParams, camera: &[Vec3], t: &[u32; 3]) -> bool {
     let d = t.map(|v| -camera[v as usize].z);
     d.iter().all(|&d| d <= view.near) || d.iter().all(|&d| d >= view.far)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::SplitMix64;
+
+    /// A view at distance 3 with near 0.5 and far 5: rotated (no zero entry in its depth row, so
+    /// another grouping of the dot product would round differently somewhere), or looking down
+    /// −z (so depths exactly at the planes are easy to place).
+    fn view(rotated: bool) -> ViewParams {
+        let row2 = if rotated { [0.48, 0.64, 0.6, -3.0] } else { [0.0, 0.0, 1.0, -3.0] };
+        ViewParams {
+            row0: [0.36, 0.48, -0.8, 0.013],
+            row1: [-0.8, 0.6, 0.03, -0.021],
+            row2,
+            centre: [31.5, 17.25],
+            scale: [40.0, 41.0],
+            perspective: 1,
+            near: 0.5,
+            far: 5.0,
+            width: 64,
+            height: 36,
+            pad0: 0,
+            pad1: 0,
+            pad2: 0,
+        }
+    }
+
+    /// The blocked check answers as `camera_space`'s depth vertex by vertex, compiled either way,
+    /// for every length of a last block, one vertex out of place at every position (on a plane,
+    /// within rounding of one, just inside one, behind the camera, not finite), and none.
+    #[test]
+    fn the_blocked_plane_check_is_the_vertex_at_a_time_one() {
+        let mut rng = SplitMix64::new(9);
+        let mut answers = [0; 2];
+        for rotated in [true, false] {
+            let view = view(rotated);
+            let one_by_one = |positions: &[Vec3]| {
+                positions.iter().all(|&p| {
+                    let d = -camera_space(&view, p).z;
+                    d > view.near && d < view.far
+                })
+            };
+            let odd = [
+                Vec3::new(0.0, 0.0, 2.5),        // depth 0.5 (looking down −z): on near
+                Vec3::new(0.0, 0.0, -2.0),       // depth 5: on far
+                Vec3::new(0.0, 0.0, 2.4999998),  // just inside near
+                Vec3::new(0.0, 0.0, -1.9999998), // just inside far
+                Vec3::new(0.1, -0.2, 3.5),       // behind the camera
+                Vec3::new(f32::NAN, 0.0, 0.0),
+                Vec3::new(0.0, f32::INFINITY, 0.0),
+            ];
+            for n in (0..=17).chain([100, 1001]) {
+                let base: Vec<Vec3> = (0..n)
+                    .map(|_| Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
+                    .collect();
+                let mut cases = vec![base.clone()];
+                for k in 0..n {
+                    let mut positions = base.clone();
+                    positions[k] = if k % 2 == 0 {
+                        odd[k / 2 % odd.len()]
+                    } else {
+                        // Within rounding of a plane: z solved in f32 for a random x and y.
+                        let (r, plane) = (view.row2, [view.near, view.far][k / 2 % 2]);
+                        let (x, y) = (rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                        Vec3::new(x, y, (-plane - r[3] - r[0] * x - r[1] * y) / r[2])
+                    };
+                    cases.push(positions);
+                }
+                for positions in cases {
+                    let expected = one_by_one(&positions);
+                    answers[expected as usize] += 1;
+                    assert_eq!(all_between_planes_any(&view, &positions), expected, "{n} vertices: {positions:?}");
+                    assert_eq!(all_between_planes(&view, &positions), expected, "{n} vertices: {positions:?}");
+                }
+            }
+        }
+        assert!(answers.iter().all(|&a| a > 20), "both answers occur: {answers:?}");
+    }
 }
