@@ -1,7 +1,8 @@
 //! The instruction set of the passes over every vertex and every face, chosen when they run.
 //!
 //! Those passes ([`project_and_snap`](super::project::project_and_snap), the face pass of
-//! [`coverage`](super::coverage::coverage)) work on blocks of eight lanes of `i32` and `f32`:
+//! [`coverage`](super::coverage::coverage), and the renderer's check that every vertex lies
+//! between the near and far planes) work on blocks of eight lanes of `i32` and `f32`:
 //! one 256-bit AVX2 register each. The crate is compiled for its target's baseline, which on
 //! x86-64 is SSE2: there a block takes two 128-bit halves, and the 32-bit minimum, maximum and
 //! conversions that SSE2 lacks take several instructions each. So on x86-64 each of these passes
