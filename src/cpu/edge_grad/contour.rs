@@ -31,6 +31,7 @@
 //! relative 1e-16, far below the f32 gradient slots' precision).
 
 use glam::{DVec2, Vec2};
+use rayon::prelude::*;
 
 use crate::cpu::coverage::contour::{edge_weights, wing_weights};
 use crate::cpu::edges::edge_side;
@@ -113,20 +114,18 @@ impl ContourBands {
             [f, g] if f != u32::MAX => wing_weights(orientation[f as usize], orientation[g as usize]),
             _ => edge_weights(topology, orientation, e as usize),
         };
-        self.edges.clear();
-        let mut push = |e: u32, (positive, net): (i32, i32)| {
+        let contour_edge = |e: u32, (positive, net): (i32, i32)| {
             let [a, b] = edges[e as usize].map(|v| Vec2::from_array(screen[v as usize].position));
             let (lo, hi) = (a.min(b), a.max(b));
-            self.edges.push(ContourEdge { a, b, lo, hi, positive, net, edge: e, first_band: 0 });
+            ContourEdge { a, b, lo, hi, positive, net, edge: e, first_band: 0 }
         };
-        for &(e, _) in candidates {
-            push(e, weights(e));
-        }
+        self.edges.clear();
+        self.edges.par_extend(candidates.par_iter().with_min_len(1024).map(|&(e, _)| contour_edge(e, weights(e))));
         for &e in topology.irregular_edges() {
             if edge_side(orientation, topology, e as usize) == 0 {
                 let w = edge_weights(topology, orientation, e as usize);
                 if w != (0, 0) {
-                    push(e, w);
+                    self.edges.push(contour_edge(e, w));
                 }
             }
         }
