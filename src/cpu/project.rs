@@ -163,13 +163,13 @@ fn project_block<const PERSPECTIVE: bool>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::random::SplitMix64 as Rng;
 
     /// A rotated view at distance 3 (no zero entry in its rows, so that any other grouping of the
     /// sums would round differently somewhere), with near/far clipping.
-    fn view(perspective: bool) -> ViewParams {
+    pub(crate) fn view(perspective: bool) -> ViewParams {
         ViewParams {
             row0: [0.36, 0.48, -0.8, 0.013],
             row1: [-0.8, 0.6, 0.03, -0.021],

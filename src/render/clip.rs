@@ -356,25 +356,15 @@ mod tests {
     use super::*;
     use crate::random::SplitMix64;
 
-    /// A view at distance 3 with near 0.5 and far 5: rotated (no zero entry in its depth row, so
-    /// another grouping of the dot product would round differently somewhere), or looking down
-    /// −z (so depths exactly at the planes are easy to place).
+    /// A view at distance 3 with near 0.5 and far 5: rotated (the projection tests' view: no zero
+    /// entry in its depth row, so another grouping of the dot product would round differently
+    /// somewhere), or looking down −z (so depths exactly at the planes are easy to place).
     fn view(rotated: bool) -> ViewParams {
-        let row2 = if rotated { [0.48, 0.64, 0.6, -3.0] } else { [0.0, 0.0, 1.0, -3.0] };
-        ViewParams {
-            row0: [0.36, 0.48, -0.8, 0.013],
-            row1: [-0.8, 0.6, 0.03, -0.021],
-            row2,
-            centre: [31.5, 17.25],
-            scale: [40.0, 41.0],
-            perspective: 1,
-            near: 0.5,
-            far: 5.0,
-            width: 64,
-            height: 36,
-            pad0: 0,
-            pad1: 0,
-            pad2: 0,
+        let view = crate::cpu::project::tests::view(true);
+        if rotated {
+            view
+        } else {
+            ViewParams { row2: [0.0, 0.0, 1.0, -3.0], ..view }
         }
     }
 
