@@ -299,8 +299,8 @@ const EMPTY: ContourEdge = ContourEdge {
 /// above the image and the last for every one below it. Monotonic in `y`.
 fn band_of(per_pixel: f64, bands: u32, y: f64) -> u32 {
     // Clamped first, then truncated: for a value in [0, bands − 1] truncation is the floor, and
-    // a NaN gives band 0 either way. Branch-free (the counts and fill of `build` call it twice
-    // per contour edge, at unpredictable heights).
+    // a NaN gives band 0 either way. Branch-free (the counts of `build` call it twice per
+    // contour edge and `trace` three times per candidate, at unpredictable heights).
     (y * per_pixel).max(0.0).min((bands - 1) as f64) as u32
 }
 
