@@ -119,6 +119,14 @@ fn project_chunk_any<const PERSPECTIVE: bool>(
     }
 }
 
+/// One row of a view's `[R | t]` applied to `(p, 1)`, grouped as `(r.x·p.x + r.z·p.z) +
+/// (r.y·p.y + r.w)`: glam's SSE2 grouping of `Vec4::dot`, which `ViewParams::camera_space` and
+/// `project.wgsl` use too, written out so that a block of lanes compiles to vector operations.
+#[inline(always)]
+pub(crate) fn row_dot(r: [f32; 4], p: Vec3) -> f32 {
+    (r[0] * p.x + r[2] * p.z) + (r[1] * p.y + r[3])
+}
+
 /// One block of [`LANES`] vertices, of which the first `screen.len()` are written.
 #[inline(always)]
 fn project_block<const PERSPECTIVE: bool>(
@@ -133,9 +141,7 @@ fn project_block<const PERSPECTIVE: bool>(
     let (mut sx, mut sy, mut valid, mut qx, mut qy) =
         ([0f32; LANES], [0f32; LANES], [0u32; LANES], [0i32; LANES], [0i32; LANES]);
     for l in 0..LANES {
-        let (x, y, z) = (p[l].x, p[l].y, p[l].z);
-        let dot = |r: [f32; 4]| (r[0] * x + r[2] * z) + (r[1] * y + r[3]);
-        let (cx, cy, cz) = (dot(r0), dot(r1), dot(r2));
+        let (cx, cy, cz) = (row_dot(r0, p[l]), row_dot(r1, p[l]), row_dot(r2, p[l]));
         let depth = -cz;
         let in_range = (depth > view.near) & (depth < view.far);
         let (u, v) = if PERSPECTIVE { (cx / depth, cy / depth) } else { (cx, cy) };

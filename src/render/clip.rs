@@ -56,10 +56,9 @@ fn all_between_planes_avx2(view: &ViewParams, positions: &[Vec3]) -> bool {
 /// compiler vectorises it.
 #[inline(always)]
 fn all_between_planes_any(view: &ViewParams, positions: &[Vec3]) -> bool {
-    let r = view.row2;
     let (near, far) = (view.near, view.far);
     let inside = |p: &Vec3| {
-        let depth = -((r[0] * p.x + r[2] * p.z) + (r[1] * p.y + r[3]));
+        let depth = -crate::cpu::project::row_dot(view.row2, *p);
         (depth > near) & (depth < far)
     };
     let mut blocks = positions.chunks_exact(8);
