@@ -21,21 +21,15 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use glam::{DVec2, DVec3, Vec2, Vec3, Vec4};
+use glam::{DVec2, DVec3, Vec2, Vec3};
 
 use crate::mirror::{ScreenVertex, ViewParams, COORD_LIMIT};
 use crate::scene::mesh::Topology;
 use crate::Result;
 
-/// Camera-space point of `p`, in exactly the `f32` arithmetic of `ViewParams::project`.
-fn camera_space(view: &ViewParams, p: Vec3) -> Vec3 {
-    let h = p.extend(1.0);
-    Vec3::new(Vec4::from(view.row0).dot(h), Vec4::from(view.row1).dot(h), Vec4::from(view.row2).dot(h))
-}
-
 /// Whether every vertex's depth lies strictly between the near and far planes: eight vertices
-/// at a time, with AVX2 where the processor has it (`cpu/isa.rs`). The depth is `camera_space`'s
-/// (glam's grouping of the dot product, which `project` repeats), so the answer is the same.
+/// at a time, with AVX2 where the processor has it (`cpu/isa.rs`). The depth is `row_dot`'s, the
+/// grouping of `ViewParams::camera_space` and `project`, so the answer is the same.
 fn all_between_planes(view: &ViewParams, positions: &[Vec3]) -> bool {
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::isa::has_avx2() {
@@ -183,7 +177,7 @@ impl ClipView {
         if all_between_planes(view, positions) {
             return Ok(None);
         }
-        let camera: Vec<Vec3> = positions.iter().map(|&p| camera_space(view, p)).collect();
+        let camera: Vec<Vec3> = positions.iter().map(|&p| view.camera_space(p)).collect();
         let side = |v: u32| {
             let d = -camera[v as usize].z;
             if d > view.near && d < view.far {
@@ -304,7 +298,7 @@ impl ClipView {
         let mut grads = super::views::view_to_3d(view, positions, &screen_grads[..n.min(screen_grads.len())]);
         let rows = rotation_rows(view);
         let to_world = |gc: DVec3| rows[0] * gc.x + rows[1] * gc.y + rows[2] * gc.z;
-        let c64 = |v: u32| camera_space(view, positions[v as usize]).as_dvec3();
+        let c64 = |v: u32| view.camera_space(positions[v as usize]).as_dvec3();
         let mut extra = vec![DVec3::ZERO; n];
         let mut on_plane = self.on_plane.clone();
         on_plane.sort_unstable();
@@ -367,8 +361,8 @@ mod tests {
         }
     }
 
-    /// The blocked check answers as `camera_space`'s depth vertex by vertex, compiled either way,
-    /// for every length of a last block, one vertex out of place at every position (on a plane,
+    /// The blocked check answers as `ViewParams::camera_space`'s depth vertex by vertex,
+    /// compiled either way, for every length of a last block, one vertex out of place at every position (on a plane,
     /// within rounding of one, just inside one, behind the camera, not finite), and none.
     #[test]
     fn the_blocked_plane_check_is_the_vertex_at_a_time_one() {
@@ -378,7 +372,7 @@ mod tests {
             let view = view(rotated);
             let one_by_one = |positions: &[Vec3]| {
                 positions.iter().all(|&p| {
-                    let d = -camera_space(&view, p).z;
+                    let d = -view.camera_space(p).z;
                     d > view.near && d < view.far
                 })
             };

@@ -453,8 +453,9 @@ impl Orbit {
 }
 
 impl ViewParams {
+    /// Camera-space point of `p`, in exactly the `f32` arithmetic of [`ViewParams::project`].
     #[inline]
-    fn camera_space(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn camera_space(&self, p: Vec3) -> Vec3 {
         let h = p.extend(1.0);
         Vec3::new(
             glam::Vec4::from(self.row0).dot(h),
