@@ -362,8 +362,9 @@ mod tests {
     }
 
     /// The blocked check answers as `ViewParams::camera_space`'s depth vertex by vertex,
-    /// compiled either way, for every length of a last block, one vertex out of place at every position (on a plane,
-    /// within rounding of one, just inside one, behind the camera, not finite), and none.
+    /// compiled either way, for every length of a last block, one vertex out of place at every
+    /// position (on a plane, within rounding of one, just inside one, behind the camera, not
+    /// finite), and none.
     #[test]
     fn the_blocked_plane_check_is_the_vertex_at_a_time_one() {
         let mut rng = SplitMix64::new(9);
