@@ -98,19 +98,27 @@ pub(super) fn chain_to_3d(
             .map(|(c, chunk)| {
                 let first = c * CHAIN_CHUNK;
                 let mut overflowed = false;
-                for (v, g) in (first..).zip(chunk) {
-                    let term = match grad {
-                        ViewGradient::Screen(g2) => match g2.get(v) {
-                            Some(&d) if d != Vec2::ZERO => screen_term(view, positions[v], d),
-                            _ => continue,
-                        },
-                        ViewGradient::World(g3) => match g3.get(v) {
-                            Some(&d) if d != Vec3::ZERO => d,
-                            _ => continue,
-                        },
-                    };
+                let mut add = |g: &mut Vec3, term: Vec3| {
                     *g += term;
                     overflowed |= !g.is_finite();
+                };
+                match grad {
+                    ViewGradient::Screen(g2) => {
+                        let g2 = &g2[first.min(g2.len())..(first + chunk.len()).min(g2.len())];
+                        for_nonzero(g2, |i, &d| {
+                            if d != Vec2::ZERO {
+                                add(&mut chunk[i], screen_term(view, positions[first + i], d));
+                            }
+                        });
+                    }
+                    ViewGradient::World(g3) => {
+                        let g3 = &g3[first.min(g3.len())..(first + chunk.len()).min(g3.len())];
+                        for_nonzero(g3, |i, &d| {
+                            if d != Vec3::ZERO {
+                                add(&mut chunk[i], d);
+                            }
+                        });
+                    }
                 }
                 overflowed
             })
@@ -121,6 +129,24 @@ pub(super) fn chain_to_3d(
     }
     Ok(grads)
 }
+
+/// Calls `f(i, &items[i])` for the items of every block of [`ZERO_BLOCK`] in which one has a
+/// bit set other than a sign bit (so for every non-zero item, and for some zeros beside them):
+/// most of a gradient is zero, and a block of zeros is skipped in a few vector operations.
+fn for_nonzero<T: bytemuck::Pod>(items: &[T], mut f: impl FnMut(usize, &T)) {
+    for (b, block) in items.chunks(ZERO_BLOCK).enumerate() {
+        let words: &[u32] = bytemuck::cast_slice(block);
+        if words.iter().fold(0, |acc, w| acc | w << 1) == 0 {
+            continue;
+        }
+        for (i, item) in block.iter().enumerate() {
+            f(b * ZERO_BLOCK + i, item);
+        }
+    }
+}
+
+/// Items per block of [`for_nonzero`].
+const ZERO_BLOCK: usize = 16;
 
 /// Vertices per parallel task of [`chain_to_3d`].
 const CHAIN_CHUNK: usize = 4096;
@@ -181,6 +207,38 @@ pub(super) fn check_finite_gradients<T: Copy + std::fmt::Debug>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`for_nonzero`] visits every item that is not ±0 (subnormals, NaN and infinities
+    /// included, at either end of a block and in a short last block), each with its own index,
+    /// and skips the blocks that hold only zeros of either sign.
+    #[test]
+    fn for_nonzero_visits_every_nonzero_item_and_skips_zero_blocks() {
+        let n = 7 * ZERO_BLOCK + 5;
+        let mut items = vec![Vec2::ZERO; n];
+        items[ZERO_BLOCK..2 * ZERO_BLOCK].fill(Vec2::splat(-0.0));
+        let specials = [
+            (0, Vec2::new(2.0, 0.0)),
+            (3 * ZERO_BLOCK - 1, Vec2::new(0.0, f32::from_bits(1))),
+            (3 * ZERO_BLOCK, Vec2::new(-0.0, f32::NAN)),
+            (5 * ZERO_BLOCK + 7, Vec2::new(f32::NEG_INFINITY, -0.0)),
+            (n - 1, Vec2::new(-f32::MIN_POSITIVE, 0.0)),
+        ];
+        for (i, v) in specials {
+            items[i] = v;
+        }
+        let mut visited = Vec::new();
+        for_nonzero(&items, |i, item| {
+            assert_eq!(item.to_array().map(f32::to_bits), items[i].to_array().map(f32::to_bits), "item {i}");
+            visited.push(i);
+        });
+        for (i, _) in specials {
+            assert!(visited.contains(&i), "item {i} is not zero but was skipped");
+        }
+        for block in [1, 4, 6] {
+            assert!(!visited.iter().any(|&i| i / ZERO_BLOCK == block), "block {block} holds only zeros");
+        }
+        assert!(visited.windows(2).all(|w| w[0] < w[1]), "in order, once each");
+    }
 
     /// The chain to 3D sums each vertex's views in order, leaves vertices without a term at zero,
     /// and names the first vertex whose sum overflows f32 (only a vertex with a term can).
