@@ -200,14 +200,15 @@ impl ContourBands {
         let range = self.offsets[k as usize] as usize..self.offsets[k as usize + 1] as usize;
         let (list, keys) = (&self.entries[range.clone()], &self.keys[range]);
         let bound = x - self.widths[k as usize];
-        let bound = bound - 1e-12 * bound.abs();
-        (list, keys, keys.partition_point(|&key| (key as f64) < bound))
+        let bound = f32_at_or_above(bound - 1e-12 * bound.abs());
+        (list, keys, keys.partition_point(|&key| key < bound))
     }
 
-    /// What the visible parts of candidate edge `e` (`va → vb`, outward normal `outward`) follow
-    /// from, into `out`: the sums `(N₊, D)` just outside its start, each crossing with a contour
-    /// edge (its parameter and the sums after it, in order), and the stretches that coincident
-    /// edges ranking before `rank` take from it.
+    /// What the visible parts of candidate edge `e` (`va → vb`, outward normal `outward`; its end
+    /// points f32 screen coordinates, as the contour's, converted to f64) follow from, into
+    /// `out`: the sums `(N₊, D)` just outside its start, each crossing with a contour edge (its
+    /// parameter and the sums after it, in order), and the stretches that coincident edges
+    /// ranking before `rank` take from it.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn trace(
         &self,
@@ -221,19 +222,18 @@ impl ContourBands {
     ) {
         let d = vb - va;
         let (lo, hi) = (va.min(vb), va.max(vb));
+        // The end points are f32 screen coordinates: so is the box, and comparing it with the
+        // contour edges' f32 boxes in f32 is exact.
+        let (lo32, hi32) = (lo.as_vec2(), hi.as_vec2());
         let (first, last, start_band) = (self.band(lo.y), self.band(hi.y), self.band(va.y));
         out.crossings.clear();
         out.yielded.clear();
         for k in first..=last {
             let (list, keys, reach) = self.list(k, lo.x);
-            let end = keys.partition_point(|&key| key as f64 <= hi.x);
+            let end = keys.partition_point(|&key| key <= hi32.x);
             for c in &list[reach.min(end)..end] {
                 // An edge listed in several of these bands is tested in the first one.
-                if c.first_band.max(first) != k
-                    || (c.hi.x as f64) < lo.x
-                    || (c.hi.y as f64) < lo.y
-                    || c.lo.y as f64 > hi.y
-                {
+                if c.first_band.max(first) != k || c.hi.x < lo32.x || c.hi.y < lo32.y || c.lo.y > hi32.y {
                     continue;
                 }
                 let (ca, cb) = (c.a.as_dvec2(), c.b.as_dvec2());
@@ -257,7 +257,7 @@ impl ContourBands {
         // The sums at the start: a ray cast to the left or to the right of it, whichever meets
         // fewer entries of its band.
         let (list, keys, reach) = self.list(start_band, va.x);
-        let left = keys.partition_point(|&key| key as f64 <= va.x);
+        let left = keys.partition_point(|&key| key <= va.x as f32);
         let (mut positive, mut net) = (0, 0);
         if left <= list.len() - reach {
             for c in &list[..left] {
@@ -304,6 +304,19 @@ fn band_of(per_pixel: f64, bands: u32, y: f64) -> u32 {
     (y * per_pixel).max(0.0).min((bands - 1) as f64) as u32
 }
 
+/// The least f32 at or above `x`, so that `key < x` exactly when `key < f32_at_or_above(x)`
+/// for every f32 `key`: the band searches then compare f32 keys without converting each to f64
+/// (a conversion on the critical path of every probe). Infinite above `f32::MAX`; NaN for NaN.
+#[inline]
+fn f32_at_or_above(x: f64) -> f32 {
+    let nearest = x as f32;
+    if (nearest as f64) < x {
+        nearest.next_up()
+    } else {
+        nearest
+    }
+}
+
 /// A key whose unsigned order is the order of the f32 `x` (for every non-NaN `x`; `-0.0` before
 /// `0.0`, which the band searches treat alike).
 #[inline]
@@ -347,7 +360,9 @@ enum Ray {
 #[inline]
 fn ray_crossing(c: &ContourEdge, va: DVec2, d: DVec2, n: DVec2, ray: Ray) -> i32 {
     // Strictly above or below both ends, the point's perturbations change nothing: no crossing.
-    if va.y < c.lo.y as f64 || va.y > c.hi.y as f64 {
+    // (`va` is an f32 screen point: the f32 comparison is exact.)
+    let y = va.y as f32;
+    if y < c.lo.y || y > c.hi.y {
         return 0;
     }
     let at_or_below = |y: f64| sign3(va.y - y, d.y, n.y) > 0;
@@ -475,6 +490,31 @@ mod tests {
         values.push(f32::INFINITY);
         for pair in values.windows(2) {
             assert!(x_key(pair[0]) < x_key(pair[1]), "{} {}", pair[0], pair[1]);
+        }
+    }
+
+    /// [`f32_at_or_above`] answers `key < x` for f32 keys as the f64 comparison does: `x`
+    /// exactly an f32, halfway and just beside one, beyond f32's range, subnormal, ±0 and NaN,
+    /// against the f32 values around it.
+    #[test]
+    fn f32_at_or_above_keeps_the_f64_comparison() {
+        let mut rng = crate::random::SplitMix64::new(11);
+        let mut xs: Vec<f64> = (0..3000).map(|_| rng.range(-1e3, 1e3) as f64 * 1.000_000_1).collect();
+        for v in [1.0f32, -1.0, 0.1, 3.4e38, f32::MAX, f32::MIN_POSITIVE, f32::from_bits(1), 7.0e-3] {
+            let v = v as f64;
+            let half = (v.abs() * 2f64.powi(-24)).max(1e-46);
+            xs.extend([v, -v, v + half, v - half, v + half * 0.5, v - half * 1.5, -v + half]);
+        }
+        xs.extend([0.0, -0.0, 1e39, -1e39, f64::MAX, -f64::MAX, f64::INFINITY, f64::NEG_INFINITY, f64::NAN]);
+        xs.extend([f32::MAX as f64 * (1.0 + 1e-9), -(f32::MAX as f64) * (1.0 + 1e-9)]);
+        for x in xs {
+            let bound = f32_at_or_above(x);
+            let near = x as f32;
+            let keys =
+                [near, near.next_up(), near.next_down(), near.next_up().next_up(), 0.0, -0.0, f32::MAX, -f32::MAX];
+            for key in keys.into_iter().filter(|k| k.is_finite()) {
+                assert_eq!(key < bound, (key as f64) < x, "key {key:e}, x {x:e}, bound {bound:e}");
+            }
         }
     }
 
