@@ -83,10 +83,10 @@ shrinks every render by up to one pixel before it is compared, so that masks a p
 too thin do not twist the pose (--outline-settle X drops it for the unblurred steps when the
 blurred ones end with |a| below X; --warmup K ramps the learning rate up over the first K
 unblurred steps; both off by default). Then the swap test: each leg and arm mirrored front to
-back, both legs mirrored and the legs exchanged; the lowest in energy as it is, and any
-within 3 times the pose's energy, refined 10 steps beside the pose and kept where the energy ends
-lower (--swap-steps, --swap-refined, --swap-within). Same method and settings at every resolution
-and F."
+back, each forearm turned about its upper arm, both legs mirrored and the legs exchanged; the
+lowest in energy as it is, and any within 3 times the pose's energy, refined 10 steps beside
+the pose and kept where the energy ends lower (--swap-steps, --swap-refined, --swap-within).
+Same method and settings at every resolution and F."
 )]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in MakeHuman body, 7,000 vertices, 31 joints, 10

@@ -102,8 +102,9 @@ pub struct FitOptions {
     /// `docs/pose-fit-evaluation.md`).
     pub warmup: u32,
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
-    /// mirrored front to back (an arm near the body's plane also swung forward and back), the
-    /// legs exchanged, each candidate and the pose refined this many
+    /// mirrored front to back (an arm near the body's plane also swung forward and back), each
+    /// forearm turned about its upper arm, the legs exchanged, each candidate and the pose
+    /// refined this many
     /// steps, a candidate kept only where the energy ends lower); 0: no swap test. Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
     pub swap_steps: u32,

@@ -1,15 +1,16 @@
 //! The limb swap test on a final pose ([`PoseFit::swap_limbs`]): the discrete mistakes descent
 //! cannot undo (a limb on the wrong side of the body's coronal plane, an arm left in that plane
-//! behind the torso where it should reach forward or back, the legs holding each other's places)
-//! are tried as candidates, refined a few steps beside the pose itself, and kept only where the
-//! energy ends lower.
+//! behind the torso where it should reach forward or back, a forearm bent the wrong way round,
+//! the legs holding each other's places) are tried as candidates, refined a few steps beside the
+//! pose itself, and kept only where the energy ends lower.
 //!
 //! A candidate changes a limb's rotations, not its vertices: each joint `k` of the limb has a
 //! world rotation `Q_k` at the pose and `Q⁰_k` at rest, so the limb part moved by
 //! `T_k = Q_k Q⁰_kᵀ`. Mirroring the limb in a plane with unit normal `n` (reflection
 //! `M = I − 2nnᵀ`) replaces every `T_k` of the limb by `M T_k M` (a proper rotation); exchanging
 //! two limbs gives each one the other's `T`, mirrored in the sagittal plane; swinging a limb by a
-//! rotation `S` about an axis through its first joint replaces every `T_k` by `S T_k`. The new joint offsets
+//! rotation `S` about an axis through its first joint replaces every `T_k` by `S T_k` (turning a
+//! forearm is the same below the elbow, the axis along the upper arm). The new joint offsets
 //! follow from `R(θ'_k) = Q⁰_kᵀ T'_pᵀ T'_k Q⁰_k` (`p` the parent), which gives back `θ_k` where
 //! nothing changed.
 
@@ -42,6 +43,10 @@ pub enum LimbSwap {
     Swing(usize, bool),
     /// The legs exchanged: each takes the other's rotations, mirrored left to right.
     ExchangeLegs,
+    /// The forearm below this elbow joint turned about its upper arm's line by this many
+    /// quarter turns (1, 2 or 3): an elbow bent the wrong way round, which the views can leave
+    /// unseen where the forearm hides behind the torso in some of them.
+    Twist(usize, u8),
 }
 
 /// One candidate of [`PoseFit::swap_limbs`] and its energies.
@@ -198,7 +203,11 @@ impl PoseFit {
 /// arm that reaches at most 15° off the coronal plane nearly mirrors onto itself; it is also
 /// swung 40° forward and 40° back ([`LimbSwap::Swing`]), about the axis across it in that plane
 /// (an arm fitted alongside the torso, hidden behind it in the side views, where the target's
-/// reaches forward, gets no silhouette gradient to bring it out). The
+/// reaches forward, gets no silhouette gradient to bring it out). Each forearm is also turned
+/// about its upper arm's line by a quarter, a half and three quarters of a turn
+/// ([`LimbSwap::Twist`]; the elbow is the arm's first joint's child with the most joints below
+/// it): a bent forearm's hand goes round that line, a straight one's hardly moves but its
+/// refinement steps start from a turned elbow. The
 /// legs and arms are the mirrored pairs of [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses);
 /// the coronal plane is spanned by the line through the hips and the line from the hips' to the
 /// shoulders' midpoint (the pose's vertical axis when there are no arms). Only the limbs' joint
@@ -274,6 +283,9 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
                 swaps.push((LimbSwap::Swing(limb, forward_swing), (t, changed)));
             }
         }
+        if is_arm {
+            swaps.extend(forearm_twists(parents, limb, &at, &moved));
+        }
     }
     swaps.push((LimbSwap::MirrorLegs, mirror(&[left_leg, right_leg])));
     if let Some(pairs) = matched_subtrees(parents, left_leg, right_leg) {
@@ -297,6 +309,44 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             (kind, out)
         })
         .collect())
+}
+
+/// A candidate's world rotations relative to rest, one per joint, and which of them changed.
+type ChangedRotations = (Vec<Mat3>, Vec<bool>);
+
+/// The [`LimbSwap::Twist`] candidates of the arm whose first joint is `arm` (`at`: a joint's
+/// position at the pose, `moved`: every joint's world rotation relative to rest), each with its
+/// world rotations and which of them changed; none when the arm has no elbow or no length.
+fn forearm_twists(
+    parents: &[Option<usize>],
+    arm: usize,
+    at: &impl Fn(usize) -> Vec3,
+    moved: &[Mat3],
+) -> Vec<(LimbSwap, ChangedRotations)> {
+    let n = parents.len();
+    // The elbow: the child with the most joints below it (the first such, in joint order).
+    let Some((below, elbow)) = (0..n)
+        .filter(|&k| parents[k] == Some(arm))
+        .map(|k| (subtree(parents, k), k))
+        .max_by(|(a, ka), (b, kb)| a.len().cmp(&b.len()).then(kb.cmp(ka)))
+    else {
+        return Vec::new();
+    };
+    let axis = (at(elbow) - at(arm)).normalize_or_zero();
+    if axis == Vec3::ZERO {
+        return Vec::new();
+    }
+    (1..=3u8)
+        .map(|quarter| {
+            let turn = Mat3::from_axis_angle(axis, f32::from(quarter) * std::f32::consts::FRAC_PI_2);
+            let (mut t, mut changed) = (moved.to_vec(), vec![false; n]);
+            for &k in &below {
+                t[k] = turn * moved[k];
+                changed[k] = true;
+            }
+            (LimbSwap::Twist(elbow, quarter), (t, changed))
+        })
+        .collect()
 }
 
 /// Each joint's rest world rotation `Q⁰`, its world rotation relative to rest at `pose`,

@@ -219,7 +219,9 @@ fn a_swap_that_raises_the_energy_is_not_kept() {
         fit.set_learning_rate(0.002).unwrap();
         let report = fit.swap_limbs(steps, SwapScreen::ALL).unwrap();
         assert_eq!(report.kept, None, "{report:?}");
-        assert_eq!(report.candidates.len(), 6);
+        // Six, and three turns of each forearm (the arms are straight: their turns hardly move
+        // the hands, but they still end above the truth).
+        assert_eq!(report.candidates.len(), 6 + 6);
         assert!(report.candidates.iter().all(|c| c.energy.unwrap() > report.energy), "{report:?}");
         if steps == 0 {
             let error = per_vertex_error(&fit.vertices().unwrap(), &model.skin(&truth).unwrap());
@@ -239,9 +241,11 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     })
     .unwrap();
     let swap = with.swap.expect("the swap test ran");
-    // Six, and a forward and a back swing for each arm left near the body's plane.
+    // Six, a forward and a back swing for each arm left near the body's plane, and three turns
+    // of each forearm.
     let swings = swap.candidates.iter().filter(|c| matches!(c.kind, LimbSwap::Swing(..))).count();
-    assert_eq!(swap.candidates.len(), 6 + swings, "{swap:?}");
+    let twists = swap.candidates.iter().filter(|c| matches!(c.kind, LimbSwap::Twist(..))).count();
+    assert_eq!((swap.candidates.len(), twists), (6 + swings + 6, 6), "{swap:?}");
     assert!(swings % 2 == 0 && swings <= 4, "{swap:?}");
     let options = FitOptions { swap_steps: 0, ..options };
     let without =
@@ -269,10 +273,11 @@ fn an_arm_in_the_coronal_plane_is_also_swung_forward_and_back() {
     let mut pose = Pose::rest(model.joint_count());
     pose.orientation = Vec3::new(0.0, 0.3, 0.0);
     let kinds: Vec<LimbSwap> = limb_swaps(&model, &pose).unwrap().into_iter().map(|(k, _)| k).collect();
-    // At rest both arms hang in the coronal plane: two swings each besides the mirror.
+    // At rest both arms hang in the coronal plane: two swings each besides the mirror (and
+    // three turns of each forearm).
     let arms = swung(&model, &pose);
     assert_eq!(arms.len(), 2, "{kinds:?}");
-    assert_eq!(kinds.len(), 4 + 4 + 2, "{kinds:?}");
+    assert_eq!(kinds.len(), 4 + 4 + 2 + 6, "{kinds:?}");
     for &arm in &arms {
         assert!(kinds.contains(&LimbSwap::Mirror(arm)), "{kinds:?}");
     }
@@ -340,6 +345,94 @@ fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
     fit.set_learning_rate(0.002).unwrap();
     let report = fit.swap_limbs(4, SwapScreen::ALL).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Swing(arm, true)), "{report:?}");
+    let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
+    assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
+}
+
+/// The elbows that `limb_swaps` turns forearms at, at `pose`.
+fn elbows(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
+    let mut elbows: Vec<usize> = limb_swaps(model, pose)
+        .unwrap()
+        .into_iter()
+        .filter_map(|(k, _)| match k {
+            LimbSwap::Twist(j, _) => Some(j),
+            _ => None,
+        })
+        .collect();
+    elbows.dedup();
+    elbows
+}
+
+/// The built-in figure at rest with each elbow bent 1.2 rad (69°) about its joint's x axis.
+fn bent_elbows() -> (SkinnedMesh, Pose, Vec<usize>) {
+    let model = builtin_figure();
+    let mut pose = Pose::rest(model.joint_count());
+    let elbows = elbows(&model, &pose);
+    for &elbow in &elbows {
+        pose.joint_rotations[elbow] = Vec3::new(1.2, 0.0, 0.0);
+    }
+    (model, pose, elbows)
+}
+
+#[test]
+fn a_forearm_is_turned_about_its_upper_arm_by_quarter_turns() {
+    let (model, pose, elbows) = bent_elbows();
+    assert_eq!(elbows.len(), 2, "one elbow per arm");
+    let parents = &model.skeleton.parents;
+    let world = model.joint_transforms(&pose).unwrap();
+    let at = |g: &[glam::Mat4], j: usize| g[j].w_axis.truncate();
+    for &elbow in &elbows {
+        let shoulder = parents[elbow].expect("an elbow has a parent");
+        let below: Vec<usize> = (0..model.joint_count())
+            .filter(|&j| {
+                let mut k = Some(j);
+                while let Some(x) = k {
+                    if x == elbow {
+                        return true;
+                    }
+                    k = parents[x];
+                }
+                false
+            })
+            .collect();
+        let wrist = *below.iter().find(|&&j| parents[j] == Some(elbow)).expect("a forearm");
+        let axis = (at(&world, elbow) - at(&world, shoulder)).normalize();
+        let offset = at(&world, wrist) - at(&world, elbow);
+        let across = offset - offset.dot(axis) * axis;
+        assert!(across.length() > 0.5 * offset.length(), "the elbow is bent: {offset}");
+        for quarter in 1..=3u8 {
+            let turned = candidate(&model, &pose, LimbSwap::Twist(elbow, quarter));
+            let after = model.joint_transforms(&turned).unwrap();
+            let moved = at(&after, wrist) - at(&after, elbow);
+            // The same distance from the elbow and along the upper arm; round the upper arm's
+            // line by the quarter turns.
+            assert!((moved.length() - offset.length()).abs() < 1e-4 * offset.length());
+            assert!((moved.dot(axis) - offset.dot(axis)).abs() < 1e-4 * offset.length());
+            let moved_across = moved - moved.dot(axis) * axis;
+            let angle = across.cross(moved_across).dot(axis).atan2(across.dot(moved_across));
+            let expected = f32::from(quarter) * std::f32::consts::FRAC_PI_2;
+            let diff = (angle - expected).rem_euclid(std::f32::consts::TAU);
+            assert!(diff.min(std::f32::consts::TAU - diff) < 1e-3, "quarter {quarter}: turned {angle} rad");
+            // Nothing above the elbow moved.
+            for j in (0..model.joint_count()).filter(|j| !below.contains(j) || *j == elbow) {
+                assert!((at(&after, j) - at(&world, j)).length() < 1e-5, "joint {j} moved");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_fit_with_a_forearm_bent_the_wrong_way_turns_it_back() {
+    let (model, start, elbows) = bent_elbows();
+    let elbow = elbows[0];
+    let truth = candidate(&model, &start, LimbSwap::Twist(elbow, 2));
+    let (cameras, targets) = views(&model, &truth, 48);
+    let truth_vertices = model.skin(&truth).unwrap();
+    let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
+    let mut fit = fit_from(&model, &start, cameras, targets);
+    fit.set_learning_rate(0.002).unwrap();
+    let report = fit.swap_limbs(4, SwapScreen::default()).unwrap();
+    assert_eq!(report.kept, Some(LimbSwap::Twist(elbow, 2)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
 }
