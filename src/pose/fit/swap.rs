@@ -88,9 +88,12 @@ impl Default for SwapScreen {
     /// `docs/pose-fit-evaluation.md` (352 fits, held-out seeds included) with the same median,
     /// p90, worst case and failures as the three lowest, and each of the 100 fits compared one by
     /// one with the same error and kept swap: a candidate ranked second or third that wins lies
-    /// within three times the pose's energy. (Measured before the forearm turns,
-    /// [`LimbSwap::Twist`], joined the candidates; the screen was not compared with the full test
-    /// again since.)
+    /// within three times the pose's energy. Measured before the forearm turns
+    /// ([`LimbSwap::Twist`]) joined the candidates; with them, over the built-in figure's seeds
+    /// 181–330, the screen and the full test ended 149 of the 150 fits the same and with the
+    /// same median, p90, worst case and failures (seed 279: 12.0 mm screened, 15.1 mm with
+    /// every candidate refined, whose lower energy lay further from the truth), at 0.73 against
+    /// 1.05 s of CPU per fit.
     fn default() -> Self {
         SwapScreen { lowest: 1, within: 3.0 }
     }
