@@ -148,6 +148,15 @@ pub struct Options {
     /// the two runs is kept; 0: never [default: FitOptions::CROSSED_LEGS_WITHIN, 5]
     #[arg(long, value_name = "X", value_parser = finite)]
     crossed_legs: Option<f32>,
+    /// The second run also when that ratio is at most X and the crossed pose's squared error
+    /// exceeds the fitted pose's by at most --crossed-legs-excess per changed pixel [default:
+    /// FitOptions::CROSSED_LEGS_LOOSE_WITHIN, 15]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    crossed_legs_loose: Option<f32>,
+    /// The largest excess per changed pixel for --crossed-legs-loose; 0: that rule off
+    /// [default: FitOptions::CROSSED_LEGS_EXCESS, 0.1]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    crossed_legs_excess: Option<f32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -325,6 +334,8 @@ fn fit_options(o: &Options) -> FitOptions {
             within: o.swap_within.map_or(defaults.swap_screen.within, f64::from),
         },
         crossed_legs_within: o.crossed_legs.map_or(defaults.crossed_legs_within, f64::from),
+        crossed_legs_loose_within: o.crossed_legs_loose.map_or(defaults.crossed_legs_loose_within, f64::from),
+        crossed_legs_excess: o.crossed_legs_excess.map_or(defaults.crossed_legs_excess, f64::from),
         ..defaults
     }
 }
@@ -418,10 +429,12 @@ fn fit_seed(
     let second_steps = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref()).map_or(0, |r| r.steps);
     if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
         println!(
-            "crossed legs: fitted {:.3e}, crossed pose {:.3e} ({:.2} times the error where they differ) → {}{}",
+            "crossed legs: fitted {:.3e}, crossed pose {:.3e} ({:.2} times the error where they differ, {:.3} more \
+             per pixel there) → {}{}",
             c.fitted_energy,
             c.start_energy,
             c.changed_ratio,
+            c.changed_excess,
             c.energy.map_or("not run".to_string(), |e| format!("{e:.3e}")),
             if c.kept { " (kept)" } else { "" }
         );

@@ -69,29 +69,41 @@ pub fn crossed_legs(model: &SkinnedMesh, pose: &Pose) -> Result<Option<Pose>> {
     Ok(Some(out))
 }
 
+/// How much worse a candidate's renders match the targets than the fitted pose's, where the two
+/// renders differ (see [`changed_pixels`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(in crate::pose::fit) struct ChangedPixels {
+    /// The candidate's squared error over the pixels whose value differs between the two
+    /// renders, divided by the fitted pose's over the same pixels; `f64::INFINITY` when the
+    /// fitted pose matches the targets exactly there (nothing to gain) or nothing differs.
+    pub ratio: f64,
+    /// The candidate's squared error minus the fitted pose's over those pixels, per pixel;
+    /// `f64::INFINITY` when nothing differs.
+    pub excess: f64,
+}
+
 /// How much worse `candidate`'s renders match the `targets` than `fitted`'s, where the two
-/// differ: the squared error of `candidate` over the pixels whose value differs between the two
-/// renders, divided by that of `fitted` over the same pixels. Pixels where the renders agree
-/// add the same to both energies whatever the targets hold there (noise in the masks, parts of
-/// the body the candidate does not move), so this ratio, unlike the ratio of the whole
-/// energies, does not drift towards 1 when the masks are noisy. `f64::INFINITY` when `fitted`
-/// matches the targets exactly there (nothing to gain), or when the renders do not differ.
-/// The three lists hold one image per view, of the same sizes.
-pub(in crate::pose::fit) fn changed_pixels_ratio(candidate: &[Image], fitted: &[Image], targets: &[Image]) -> f64 {
-    let (mut ours, mut theirs) = (0.0f64, 0.0f64);
+/// differ. Pixels where the renders agree add the same to both energies whatever the targets
+/// hold there (noise in the masks, parts of the body the candidate does not move), so the ratio,
+/// unlike the ratio of the whole energies, does not drift towards 1 when the masks are noisy
+/// there. Noise among the changed pixels still adds to both sides, which pulls the ratio towards
+/// 1 but leaves the excess per pixel as it was on average. The three lists hold one image per
+/// view, of the same sizes.
+pub(in crate::pose::fit) fn changed_pixels(candidate: &[Image], fitted: &[Image], targets: &[Image]) -> ChangedPixels {
+    let (mut ours, mut theirs, mut count) = (0.0f64, 0.0f64, 0usize);
     for ((c, f), t) in candidate.iter().zip(fitted).zip(targets) {
         for ((&c, &f), &t) in c.data().iter().zip(f.data()).zip(t.data()) {
             if c != f {
                 let (c, f, t) = (f64::from(c), f64::from(f), f64::from(t));
                 ours += (c - t) * (c - t);
                 theirs += (f - t) * (f - t);
+                count += 1;
             }
         }
     }
-    if theirs > 0.0 {
-        ours / theirs
-    } else {
-        f64::INFINITY
+    ChangedPixels {
+        ratio: if theirs > 0.0 { ours / theirs } else { f64::INFINITY },
+        excess: if count > 0 { (ours - theirs) / count as f64 } else { f64::INFINITY },
     }
 }
 
@@ -104,20 +116,24 @@ mod tests {
     }
 
     #[test]
-    fn the_ratio_counts_only_the_pixels_where_the_renders_differ() {
+    fn the_ratio_and_the_excess_count_only_the_pixels_where_the_renders_differ() {
         let targets = [image(&[1.0, 0.0, 1.0, 0.0])];
         let fitted = [image(&[0.5, 0.0, 1.0, 0.0])];
         let candidate = [image(&[1.0, 0.0, 0.0, 0.0])];
-        // Pixels 0 and 2 differ: the candidate's error there 0 + 1, the fit's 0.25 + 0.
-        assert_eq!(changed_pixels_ratio(&candidate, &fitted, &targets), 4.0);
+        // Pixels 0 and 2 differ: the candidate's error there 0 + 1, the fit's 0.25 + 0; the
+        // excess (1 − 0.25) / 2.
+        let expected = ChangedPixels { ratio: 4.0, excess: 0.375 };
+        assert_eq!(changed_pixels(&candidate, &fitted, &targets), expected);
         // Noise where the renders agree (pixels 1 and 3) changes nothing.
         let noisy = [image(&[1.0, 1.0, 1.0, 0.7])];
-        assert_eq!(changed_pixels_ratio(&candidate, &fitted, &noisy), 4.0);
-        // Several views add up.
+        assert_eq!(changed_pixels(&candidate, &fitted, &noisy), expected);
+        // Several views add up (and the excess stays a mean per pixel).
         let two = |i: &[Image; 1]| [i[0].clone(), i[0].clone()];
-        assert_eq!(changed_pixels_ratio(&two(&candidate), &two(&fitted), &two(&targets)), 4.0);
-        // Nothing differs, or the fit is exact where they do: infinite.
-        assert_eq!(changed_pixels_ratio(&fitted, &fitted, &targets), f64::INFINITY);
-        assert_eq!(changed_pixels_ratio(&candidate, &targets, &targets), f64::INFINITY);
+        assert_eq!(changed_pixels(&two(&candidate), &two(&fitted), &two(&targets)), expected);
+        // Nothing differs: both infinite; the fit exact where they do: an infinite ratio and the
+        // candidate's own error per pixel.
+        let infinite = ChangedPixels { ratio: f64::INFINITY, excess: f64::INFINITY };
+        assert_eq!(changed_pixels(&fitted, &fitted, &targets), infinite);
+        assert_eq!(changed_pixels(&candidate, &targets, &targets), ChangedPixels { ratio: f64::INFINITY, excess: 1.0 });
     }
 }

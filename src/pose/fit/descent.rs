@@ -39,7 +39,7 @@ pub use swap::{limb_swaps, LimbSwap, SwapCandidate, SwapReport, SwapScreen};
 // swap test's joint-rotation helpers).
 #[path = "crossed_legs.rs"]
 mod crossed_legs;
-pub(in crate::pose::fit) use crossed_legs::changed_pixels_ratio;
+pub(in crate::pose::fit) use crossed_legs::changed_pixels;
 pub use crossed_legs::crossed_legs;
 
 /// The numbers of one fitting step.

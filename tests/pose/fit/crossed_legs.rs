@@ -163,8 +163,42 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     assert_eq!(cancelled.pose(), first_only.pose());
     assert_eq!(cancelled.energy().unwrap(), crossed.fitted_energy);
     for bad in [f64::NAN, -1.0, f64::INFINITY] {
-        let options = FitOptions { crossed_legs_within: bad, ..base.clone() };
-        let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on);
-        assert!(matches!(result, Err(Error::InvalidSettings(_))), "bound {bad}: {result:?}");
+        for options in [
+            FitOptions { crossed_legs_within: bad, ..base.clone() },
+            FitOptions { crossed_legs_loose_within: bad, ..base.clone() },
+            FitOptions { crossed_legs_excess: bad, ..base.clone() },
+        ] {
+            let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on);
+            assert!(matches!(result, Err(Error::InvalidSettings(_))), "bound {bad}: {result:?}");
+        }
+    }
+}
+
+#[test]
+fn a_looser_ratio_runs_the_second_run_when_the_excess_per_changed_pixel_is_small() {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
+    let (cameras, targets) = views(&model, &truth, 24);
+    // A strict bound no ratio meets: only the looser rule can run the second run.
+    let strict = FitOptions { steps: 30, swap_steps: 0, crossed_legs_within: 1e-9, ..FitOptions::default() };
+    let run = |options: &FitOptions| {
+        let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), options, go_on).unwrap();
+        fitted.crossed_legs.expect("looked at")
+    };
+    let looked = run(&FitOptions { crossed_legs_excess: 0.0, ..strict.clone() });
+    assert!(looked.report.is_none(), "{looked:?}");
+    let (ratio, excess) = (looked.changed_ratio, looked.changed_excess);
+    // The excess is a mean over pixels in [0, 1], of the same sign as the ratio's log.
+    assert!(excess.abs() <= 1.0 && (excess > 0.0) == (ratio > 1.0), "{ratio} {excess}");
+    // Both the looser bound and the excess bound met: it runs; either one missed: it does not.
+    let loose = |within: f64, most: f64| FitOptions {
+        crossed_legs_loose_within: within,
+        crossed_legs_excess: most,
+        ..strict.clone()
+    };
+    assert!(run(&loose(ratio, excess.max(1e-9))).report.is_some());
+    assert!(run(&loose(0.999 * ratio, excess.max(1e-9))).report.is_none());
+    if excess > 0.0 {
+        assert!(run(&loose(ratio, 0.999 * excess)).report.is_none());
     }
 }
