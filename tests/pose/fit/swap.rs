@@ -253,18 +253,36 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     assert!(without.swap.is_none());
 }
 
+/// The joints that `limb_swaps`'s candidates at `pose` name, where `joint` picks one from a
+/// candidate's kind, each once (in the candidates' order).
+fn named(model: &SkinnedMesh, pose: &Pose, joint: fn(LimbSwap) -> Option<usize>) -> Vec<usize> {
+    let mut joints: Vec<usize> = limb_swaps(model, pose).unwrap().into_iter().filter_map(|(k, _)| joint(k)).collect();
+    joints.dedup();
+    joints
+}
+
+/// `root` and every joint below it, in joint order.
+fn subtree(model: &SkinnedMesh, root: usize) -> Vec<usize> {
+    (0..model.joint_count())
+        .filter(|&j| {
+            let mut k = Some(j);
+            while let Some(x) = k {
+                if x == root {
+                    return true;
+                }
+                k = model.skeleton.parents[x];
+            }
+            false
+        })
+        .collect()
+}
+
 /// The arms' first joints that `limb_swaps` swings at `pose` (arms near the coronal plane).
 fn swung(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
-    let mut arms: Vec<usize> = limb_swaps(model, pose)
-        .unwrap()
-        .into_iter()
-        .filter_map(|(k, _)| match k {
-            LimbSwap::Swing(j, _) => Some(j),
-            _ => None,
-        })
-        .collect();
-    arms.dedup();
-    arms
+    named(model, pose, |k| match k {
+        LimbSwap::Swing(j, _) => Some(j),
+        _ => None,
+    })
 }
 
 #[test]
@@ -292,18 +310,7 @@ fn an_arm_in_the_coronal_plane_is_also_swung_forward_and_back() {
     let forward = lateral.cross(mid(&world, arms[0], arms[1]) - mid(&world, legs[0], legs[1])).normalize();
     let arm = arms[0];
     // The arm's far end: its joint farthest from the shoulder.
-    let below: Vec<usize> = (0..model.joint_count())
-        .filter(|&j| {
-            let mut k = Some(j);
-            while let Some(x) = k {
-                if x == arm {
-                    return true;
-                }
-                k = model.skeleton.parents[x];
-            }
-            false
-        })
-        .collect();
+    let below = subtree(&model, arm);
     let tip = *below
         .iter()
         .max_by(|&&a, &&b| {
@@ -351,16 +358,10 @@ fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
 
 /// The elbows that `limb_swaps` turns forearms at, at `pose`.
 fn elbows(model: &SkinnedMesh, pose: &Pose) -> Vec<usize> {
-    let mut elbows: Vec<usize> = limb_swaps(model, pose)
-        .unwrap()
-        .into_iter()
-        .filter_map(|(k, _)| match k {
-            LimbSwap::Twist(j, _) => Some(j),
-            _ => None,
-        })
-        .collect();
-    elbows.dedup();
-    elbows
+    named(model, pose, |k| match k {
+        LimbSwap::Twist(j, _) => Some(j),
+        _ => None,
+    })
 }
 
 /// The built-in figure at rest with each elbow bent 1.2 rad (69°) about its joint's x axis.
@@ -383,18 +384,7 @@ fn a_forearm_is_turned_about_its_upper_arm_by_quarter_turns() {
     let at = |g: &[glam::Mat4], j: usize| g[j].w_axis.truncate();
     for &elbow in &elbows {
         let shoulder = parents[elbow].expect("an elbow has a parent");
-        let below: Vec<usize> = (0..model.joint_count())
-            .filter(|&j| {
-                let mut k = Some(j);
-                while let Some(x) = k {
-                    if x == elbow {
-                        return true;
-                    }
-                    k = parents[x];
-                }
-                false
-            })
-            .collect();
+        let below = subtree(&model, elbow);
         let wrist = *below.iter().find(|&&j| parents[j] == Some(elbow)).expect("a forearm");
         let axis = (at(&world, elbow) - at(&world, shoulder)).normalize();
         let offset = at(&world, wrist) - at(&world, elbow);
