@@ -104,9 +104,9 @@ pub struct FitOptions {
     /// Steps of the limb swap test after the descent ([`PoseFit::swap_limbs`]: each limb
     /// mirrored front to back (an arm near the body's plane also swung forward and back), each
     /// forearm turned about its upper arm, the legs exchanged, each candidate and the pose
-    /// refined this many
-    /// steps, a candidate kept only where the energy ends lower); 0: no swap test. Only with
-    /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
+    /// refined this many steps, a candidate kept only where the energy ends lower); 0: no swap
+    /// test. Only with `fit_pose`, and not after a cancelled run. Default
+    /// [`FitOptions::SWAP_STEPS`].
     pub swap_steps: u32,
     /// Cell of the coarse proxy that the steps at the coarsest blur (the starting poses' and the
     /// first stage's, blur `coarse_blur`) render, as a fraction of the model's rest height (its
@@ -124,8 +124,8 @@ pub struct FitOptions {
     /// the fit's; [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit runs a second time from it
     /// (every stage and the swap test, as the first) and keeps whichever run ends with the lower
-    /// energy ([`PoseFit::energy`]); 0: never (neither rule). Only with `fit_pose`, and not after a cancelled
-    /// run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
+    /// energy ([`PoseFit::energy`]); 0: never (neither rule). Only with `fit_pose`, and not
+    /// after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
     ///
     /// The descent leaves crossed or close legs in each other's places now and then (the
     /// built-in figure: 4 of seeds 81–130). Refining the candidate a few steps, as the swap test
@@ -330,8 +330,8 @@ pub struct CrossedLegsReport {
     pub changed_excess: f64,
     /// The second run's report; `None` when it did not run (`changed_ratio` above
     /// [`FitOptions::crossed_legs_within`], and above [`FitOptions::crossed_legs_loose_within`]
-    /// or `changed_excess` above [`FitOptions::crossed_legs_excess`]). Its steps follow the first run's in the
-    /// [`Progress`] passed to the callback.
+    /// or `changed_excess` above [`FitOptions::crossed_legs_excess`]). Its steps follow the
+    /// first run's in the [`Progress`] passed to the callback.
     pub report: Option<RunReport>,
     /// The second run's swap test; `None` when it did not run.
     pub swap: Option<SwapReport>,

@@ -110,11 +110,12 @@
 //!    by their energy as they are (one render batch with the pose's, [`SwapScreen`]): the
 //!    lowest and any within three times the pose's energy take 10 unblurred steps beside the
 //!    pose, in one batch per step, and a candidate replaces the pose only where its energy then
-//!    ends lower. A state's steps do not depend on the others in its
-//!    batch, so the screen changes a fit only where it leaves out the candidate the full test
-//!    would keep: over 386 fits of four models and four kinds of mask the screen of the three
-//!    lowest never did, and the lowest alone with the ratio ends the evaluation of
-//!    `docs/pose-fit-evaluation.md` (352 fits) as the three did. Two lowest alone, tried
+//!    ends lower. A state's steps do not depend on the others in its batch, so the screen
+//!    changes a fit only where it leaves out the candidate the full test would keep: over 386
+//!    fits of four models and four kinds of mask the screen of the three lowest never did,
+//!    and the lowest alone with the ratio ends the evaluation of `docs/pose-fit-evaluation.md`
+//!    (352 fits) as the three did (both before the forearm turns; with them, 149 of 150 fits
+//!    of the built-in figure end as with every candidate refined). Two lowest alone, tried
 //!    earlier with the energies taken one by one, lost two swaps and saved nothing.
 //!
 //! 10. **A coarse proxy at the coarsest blur** ([`FitOptions::coarse_proxy`],
@@ -144,12 +145,13 @@
 //!     squared error at most 0.1 higher per changed pixel
 //!     ([`FitOptions::crossed_legs_loose_within`], [`FitOptions::crossed_legs_excess`]), the
 //!     whole method runs again from it and the fit keeps the run that ends with the lower
-//!     energy. On the built-in figure's
-//!     seeds 31–230 the second run ran in 10 of the 200 fits and took the failures (more than 2%
-//!     of the height off) from 8 to 1, and on seeds 231–330, which played no part in choosing
-//!     any of this, from 9 to 1 (11 second runs); the looser rule, set on seeds 31–380, improved
-//!     7 more of them (p90 11.2 → 9.4 mm, failures 3 → 2) and 1 of the fresh seeds 381–480;
-//!     the MakeHuman body's fits seldom meet either bound (see `docs/pose-fit-evaluation.md`).
+//!     energy. On the built-in figure's seeds 31–230 the second run ran in 10 of the 200 fits
+//!     and took the failures (more than 2% of the height off) from 8 to 1, and on seeds
+//!     231–330, which played no part in choosing the first bound, from 9 to 1 (11 second runs);
+//!     the looser rule, set on seeds 31–380, improved 7 more of those fits (over 31–380: p90
+//!     11.2 → 9.4 mm, failures 3 → 2), 1 of the fresh seeds 381–480 and RiggedFigure's two
+//!     failures of seeds 1–20; the MakeHuman body's fits seldom meet either bound (see
+//!     `docs/pose-fit-evaluation.md`).
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
