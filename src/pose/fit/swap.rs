@@ -280,12 +280,7 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             for forward_swing in [true, false] {
                 let angle = if forward_swing { SWING_ANGLE } else { -SWING_ANGLE };
                 let turn = Mat3::from_axis_angle(axis, angle);
-                let (mut t, mut changed) = (moved.clone(), vec![false; n]);
-                for &k in &joints {
-                    t[k] = turn * moved[k];
-                    changed[k] = true;
-                }
-                swaps.push((LimbSwap::Swing(limb, forward_swing), (t, changed)));
+                swaps.push((LimbSwap::Swing(limb, forward_swing), turned(&moved, &joints, turn)));
             }
         }
         if is_arm {
@@ -319,6 +314,17 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
 /// A candidate's world rotations relative to rest, one per joint, and which of them changed.
 type ChangedRotations = (Vec<Mat3>, Vec<bool>);
 
+/// `moved` with the world rotations of `joints` turned by `turn` (`T_k → S T_k`: the part they
+/// move swung about an axis through the first of them), and which changed.
+fn turned(moved: &[Mat3], joints: &[usize], turn: Mat3) -> ChangedRotations {
+    let (mut t, mut changed) = (moved.to_vec(), vec![false; moved.len()]);
+    for &k in joints {
+        t[k] = turn * moved[k];
+        changed[k] = true;
+    }
+    (t, changed)
+}
+
 /// The [`LimbSwap::Twist`] candidates of the arm whose first joint is `arm` (`at`: a joint's
 /// position at the pose, `moved`: every joint's world rotation relative to rest), each with its
 /// world rotations and which of them changed; none when the arm has no elbow or no length.
@@ -344,12 +350,7 @@ fn forearm_twists(
     (1..=3u8)
         .map(|quarter| {
             let turn = Mat3::from_axis_angle(axis, f32::from(quarter) * std::f32::consts::FRAC_PI_2);
-            let (mut t, mut changed) = (moved.to_vec(), vec![false; n]);
-            for &k in &below {
-                t[k] = turn * moved[k];
-                changed[k] = true;
-            }
-            (LimbSwap::Twist(elbow, quarter), (t, changed))
+            (LimbSwap::Twist(elbow, quarter), turned(moved, &below, turn))
         })
         .collect()
 }
