@@ -2,6 +2,7 @@
 //! frames) and the paper's Table 2 (`--ablation`): errors, their median, p90 and worst,
 //! failures, wall and CPU time.
 
+use diffsil::pose::fit::CrossedLegsEnd;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 
 use super::common::median;
@@ -58,15 +59,19 @@ pub fn evaluate(
             outcome.seconds,
             outcome.swap.map_or(String::new(), |s| format!(", swapped {s:?}")),
             match outcome.crossed {
-                Some(true) => ", second run from the legs crossed over: kept",
-                Some(false) => ", second run from the legs crossed over: not kept",
-                None => "",
+                Some((_, CrossedLegsEnd::SecondRun)) => ", second run from the legs crossed over: kept",
+                Some((true, CrossedLegsEnd::Refined)) => {
+                    ", second run from the legs crossed over: not kept, the crossed legs refined: kept"
+                }
+                Some((true, CrossedLegsEnd::FirstRun)) => ", second run from the legs crossed over: not kept",
+                Some((false, CrossedLegsEnd::Refined)) => ", the legs crossed over refined: kept",
+                Some((false, CrossedLegsEnd::FirstRun)) | None => "",
             }
         );
         errors.push(outcome.error_m * 1000.0);
         seconds += outcome.seconds;
         steps += u64::from(outcome.steps);
-        second_runs += usize::from(outcome.crossed.is_some());
+        second_runs += usize::from(matches!(outcome.crossed, Some((true, _))));
         height = outcome.height_m;
     }
     let fits = errors.len() as f64;

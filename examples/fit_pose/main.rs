@@ -39,8 +39,8 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, FitOptions, Fitted, LimbSwap, PoseFit, Progress,
-    Schedule, Stop, SwapScreen, RAISED_ELEVATION_DEG,
+    fit, framing_ring, per_vertex_error, random_pose, Convergence, CrossedLegsEnd, FitOptions, Fitted, LimbSwap,
+    PoseFit, Progress, Schedule, Stop, SwapScreen, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
@@ -353,8 +353,8 @@ struct Outcome {
     /// The swap the swap test kept, if any.
     swap: Option<LimbSwap>,
     /// Whether a second run from the legs crossed over ran (`FitOptions::crossed_legs_within`),
-    /// and if so whether the fit ends there.
-    crossed: Option<bool>,
+    /// and where the fit ends; `None` when the crossed pose was not looked at.
+    crossed: Option<(bool, CrossedLegsEnd)>,
 }
 
 /// Fits one seed; writes pictures when `pictures` is set.
@@ -425,18 +425,19 @@ fn fit_seed(
             candidates.join(", ")
         );
     }
-    let crossed = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref().map(|_| c.kept));
+    let crossed = fitted.crossed_legs.as_ref().map(|c| (c.report.is_some(), c.end));
     let second_steps = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref()).map_or(0, |r| r.steps);
     if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
         println!(
-            "crossed legs: fitted {:.3e}, crossed pose {:.3e} ({:.2} times the error where they differ, {:.3} more \
-             per pixel there) → {}{}",
+            "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
+             {:.3} more per pixel there) → {}; the fit ends at {:?}",
             c.fitted_energy,
             c.start_energy,
+            c.refined_energy.map_or("-".to_string(), |e| format!("{e:.3e}")),
             c.changed_ratio,
             c.changed_excess,
             c.energy.map_or("not run".to_string(), |e| format!("{e:.3e}")),
-            if c.kept { " (kept)" } else { "" }
+            c.end
         );
     }
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());

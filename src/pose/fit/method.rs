@@ -105,8 +105,8 @@ pub struct FitOptions {
     /// mirrored front to back (an arm near the body's plane also swung forward and back), each
     /// forearm turned about its upper arm, the legs exchanged, each candidate and the pose
     /// refined this many steps, a candidate kept only where the energy ends lower); 0: no swap
-    /// test. Only with `fit_pose`, and not after a cancelled run. Default
-    /// [`FitOptions::SWAP_STEPS`].
+    /// test (and no refinement of the crossed legs, [`FitOptions::crossed_legs_within`]). Only
+    /// with `fit_pose`, and not after a cancelled run. Default [`FitOptions::SWAP_STEPS`].
     pub swap_steps: u32,
     /// Cell of the coarse proxy that the steps at the coarsest blur (the starting poses' and the
     /// first stage's, blur `coarse_blur`) render, as a fraction of the model's rest height (its
@@ -122,15 +122,18 @@ pub struct FitOptions {
     /// than the fitted pose where their renders differ (the squared error over the pixels whose
     /// value differs between the two, each rendered with the fit's outline, the candidate's over
     /// the fit's; [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
-    /// [`FitOptions::crossed_legs_loose_within`] allows, the fit runs a second time from it
-    /// (every stage and the swap test, as the first) and keeps whichever run ends with the lower
-    /// energy ([`PoseFit::energy`]); 0: never (neither rule). Only with `fit_pose`, and not
-    /// after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
+    /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
+    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs a second time
+    /// from it (every stage and the swap test, as the first) and keeps whichever of the three
+    /// ends with the lowest energy ([`PoseFit::energy`]); 0: never (neither rule). Only with
+    /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
     ///
     /// The descent leaves crossed or close legs in each other's places now and then (the
     /// built-in figure: 4 of seeds 81–130). Refining the candidate a few steps, as the swap test
-    /// does, is not enough: the pelvis and the spine have settled around the wrong legs, so it
-    /// takes the blurred stages again. Over the built-in figure's seeds 31–230 the ratio was
+    /// does, is seldom enough: the pelvis and the spine have settled around the wrong legs, so it
+    /// takes the blurred stages again. Seldom is not never: in one of the built-in figure's
+    /// 1,000 fits looked at (seed 433) the refined candidate ends lowest, its second run higher
+    /// than the first (64.9 → 8.4 mm). Over the built-in figure's seeds 31–230 the ratio was
     /// 1.7–5.1 in ten of the eleven fits where a second run ends lower (58.7 in the eleventh,
     /// 12.8 mm off), 3.1 in one where it does not, and above 5.4 in the 188 others. The ratio
     /// of the whole energies separates them as well on exact masks, but not on noisy ones:
@@ -306,19 +309,37 @@ pub struct Fitted {
     /// The limb swap test after the first run's descent ([`FitOptions::swap_steps`]); `None`
     /// when it did not run.
     pub swap: Option<SwapReport>,
-    /// The second run, from the crossed legs ([`FitOptions::crossed_legs_within`]), and whether
-    /// the fit ends there; `None` when the crossed pose was not looked at (switched off, a
-    /// skeleton without a pair of legs, a cancelled first run).
+    /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the second
+    /// run from them, and where the fit ends; `None` when the crossed pose was not looked at
+    /// (switched off, a skeleton without a pair of legs, a cancelled first run).
     pub crossed_legs: Option<CrossedLegsReport>,
 }
 
-/// What [`fit`]'s second run, from the legs crossed over ([`crossed_legs`]), did.
+/// Where [`fit`] ends once it has looked at the legs crossed over ([`CrossedLegsReport::end`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CrossedLegsEnd {
+    /// Where the first run and its swap test ended.
+    FirstRun,
+    /// At the crossed pose refined [`FitOptions::swap_steps`] unblurred steps from the first
+    /// run's end ([`CrossedLegsReport::refined_energy`]).
+    Refined,
+    /// Where the second run from the crossed pose and its swap test ended.
+    SecondRun,
+}
+
+/// What [`fit`] did with the legs crossed over ([`crossed_legs`]): the crossed pose refined a
+/// few steps, the second run from it, and which the fit kept.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CrossedLegsReport {
     /// The energy ([`PoseFit::energy`]) where the first run and its swap test ended.
     pub fitted_energy: f64,
     /// The crossed pose's energy as it is (Adam and the nuisances fresh, as a run starts).
     pub start_energy: f64,
+    /// The crossed pose's energy after [`FitOptions::swap_steps`] unblurred steps from where the
+    /// first run ended (its Adam moments and nuisances), as the swap test refines its
+    /// candidates; refined where the second run runs, before it. `None` when `swap_steps` is 0
+    /// or the second run does not run.
+    pub refined_energy: Option<f64>,
     /// The crossed pose's squared error against the targets over the pixels where its renders
     /// differ from the fitted pose's, over the fitted pose's there (both rendered with the fit's
     /// outline); infinite when the fit is exact there or nothing differs. What
@@ -338,9 +359,9 @@ pub struct CrossedLegsReport {
     /// The energy where the second run and its swap test ended; `None` when it did not run or
     /// was cancelled.
     pub energy: Option<f64>,
-    /// Whether the fit ends at the second run's result (its energy strictly lower than
-    /// `fitted_energy`); otherwise it is back where the first run ended.
-    pub kept: bool,
+    /// Where the fit ends: the lowest of `fitted_energy`, `refined_energy` and `energy`, the
+    /// earlier of equal ones in that order.
+    pub end: CrossedLegsEnd,
 }
 
 /// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
@@ -349,11 +370,11 @@ pub struct CrossedLegsReport {
 /// (`FitOptions::default()` is the method's). `on_step` sees the fit and its [`Progress`] after
 /// every step; returning [`ControlFlow::Break`] cancels the fit (e.g. from an `AtomicBool` a
 /// user interface sets), which then ends at its current pose with
-/// [`Stop::Cancelled`](super::Stop::Cancelled). When the crossed legs match the targets nearly
-/// as well as the first run's result, a second run starts from them
-/// ([`FitOptions::crossed_legs_within`]) and the lower of the two is kept; its steps follow the
-/// first run's in the callback's [`Progress`], and cancelling it ends the fit where the first
-/// run ended.
+/// [`Stop::Cancelled`](super::Stop::Cancelled). When the legs crossed over match the targets
+/// nearly as well as the first run's result ([`FitOptions::crossed_legs_within`]), they are
+/// refined a few steps ([`FitOptions::swap_steps`]) and a second run starts from them; the
+/// lowest of the three is kept. The second run's steps follow the first run's in the
+/// callback's [`Progress`], and cancelling it ends the fit at the lower of the other two.
 ///
 /// ```
 /// use std::ops::ControlFlow;
@@ -460,16 +481,28 @@ pub fn fit(
         start_energy,
         changed_ratio: changed.ratio,
         changed_excess: changed.excess,
+        refined_energy: None,
         report: None,
         swap: None,
         energy: None,
-        kept: false,
+        end: CrossedLegsEnd::FirstRun,
     };
-    if changed.ratio <= options.crossed_legs_within
+    let close = changed.ratio <= options.crossed_legs_within
         || (options.crossed_legs_excess > 0.0
             && changed.ratio <= options.crossed_legs_loose_within
-            && changed.excess <= options.crossed_legs_excess)
-    {
+            && changed.excess <= options.crossed_legs_excess);
+    let mut refined = None;
+    if close && options.swap_steps > 0 {
+        // The crossed pose refined as a swap candidate is, from the fitted state: now and then
+        // lower than both runs (the built-in figure's seed 433: 64.9 → 8.4 mm, its second run
+        // ending higher than the first). Then back to the crossed pose as the second run starts.
+        let h = fit.refine_pose(first.clone(), &crossed, options.swap_steps)?;
+        outcome.refined_energy = Some(h.energy);
+        refined = Some(h.state);
+        fit.restart(&crossed)?;
+        fit.set_outline(outline)?;
+    }
+    if close {
         // The second run as the first: the same schedule, its starting poses about the crossed
         // one (a stage's outline settle may have switched the outline off in the first), its
         // steps numbered on from the first run's.
@@ -482,15 +515,26 @@ pub fn fit(
             |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
         let (second, second_swap) = run_and_swap(&mut fit, options, &schedule, &starts, &mut on_second_step)?;
         if second.stop != Stop::Cancelled {
-            let energy = fit.energy()?;
-            outcome.energy = Some(energy);
-            outcome.kept = energy < fitted_energy;
+            outcome.energy = Some(fit.energy()?);
         }
         outcome.report = Some(second);
         outcome.swap = second_swap;
     }
-    if !outcome.kept {
-        fit.set_state(first)?;
+    let mut lowest = fitted_energy;
+    for (end, energy) in
+        [(CrossedLegsEnd::Refined, outcome.refined_energy), (CrossedLegsEnd::SecondRun, outcome.energy)]
+    {
+        if let Some(energy) = energy.filter(|&e| e < lowest) {
+            (outcome.end, lowest) = (end, energy);
+        }
+    }
+    let state = match outcome.end {
+        CrossedLegsEnd::FirstRun => Some(first),
+        CrossedLegsEnd::Refined => refined,
+        CrossedLegsEnd::SecondRun => None,
+    };
+    if let Some(state) = state {
+        fit.set_state(state)?;
         fit.set_outline_rate(first_outline_rate)?;
     }
     Ok(Fitted { fit, report, swap, crossed_legs: Some(outcome) })

@@ -144,14 +144,17 @@
 //!     so that noise in the masks elsewhere does not decide), or at most 15 times worse with a
 //!     squared error at most 0.1 higher per changed pixel
 //!     ([`FitOptions::crossed_legs_loose_within`], [`FitOptions::crossed_legs_excess`]), the
-//!     whole method runs again from it and the fit keeps the run that ends with the lower
-//!     energy. On the built-in figure's seeds 31–230 the second run ran in 10 of the 200 fits
+//!     fit refines it a few steps as the swap test refines a candidate, runs the whole method
+//!     again from it and keeps whichever of the three ends with the lowest energy
+//!     ([`CrossedLegsEnd`]). On the built-in figure's seeds 31–230 the second run ran in 10 of the 200 fits
 //!     and took the failures (more than 2% of the height off) from 8 to 1, and on seeds
 //!     231–330, which played no part in choosing the first bound, from 9 to 1 (11 second runs);
 //!     the looser rule, set on seeds 31–380, improved 7 more of those fits (over 31–380: p90
 //!     11.2 → 9.4 mm, failures 3 → 2), 1 of the fresh seeds 381–480 and RiggedFigure's two
-//!     failures of seeds 1–20; the MakeHuman body's fits seldom meet either bound (see
-//!     `docs/pose-fit-evaluation.md`).
+//!     failures of seeds 1–20; the MakeHuman body's fits seldom meet either bound. The
+//!     refinement alone ends lowest in one fit of about a thousand (the built-in figure's seed
+//!     433, 64.9 → 8.4 mm, where the second run ends higher than the first) and changes no
+//!     other (see `docs/pose-fit-evaluation.md`).
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
@@ -174,6 +177,6 @@ pub use descent::{
     SwapScreen,
 };
 pub use inflation::vertex_normals;
-pub use method::{fit, CrossedLegsReport, FitOptions, Fitted};
+pub use method::{fit, CrossedLegsEnd, CrossedLegsReport, FitOptions, Fitted};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};

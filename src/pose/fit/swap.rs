@@ -17,7 +17,7 @@
 use glam::{Mat3, Mat4, Quat, Vec3};
 
 use super::hypotheses::Hypothesis;
-use super::PoseFit;
+use super::{FitState, PoseFit};
 use crate::pose::fit::poses::{mirrored_pairs, shoulder};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Error, Result};
@@ -132,14 +132,7 @@ impl PoseFit {
         let base = self.state();
         let pose = self.pose();
         let swaps = limb_swaps(&self.model, &pose)?;
-        let mut states = Vec::with_capacity(swaps.len());
-        for (_, candidate) in &swaps {
-            let mut state = base.clone();
-            state.params[..self.pose_len].copy_from_slice(&candidate.to_params());
-            // The last self-intersection check was of the other pose.
-            state.intersection = None;
-            states.push(state);
-        }
+        let states: Vec<FitState> = swaps.iter().map(|(_, candidate)| self.with_pose(&base, candidate)).collect();
         let mut candidates: Vec<SwapCandidate> =
             swaps.iter().map(|(kind, _)| SwapCandidate { kind: *kind, start_energy: None, energy: None }).collect();
         self.set_blur(0.0)?;
@@ -200,6 +193,25 @@ impl PoseFit {
         let state = results.into_iter().nth(best).expect("the pose itself is always there").state;
         self.set_state(state)?;
         Ok(report)
+    }
+
+    /// `base` with `pose` in place of its own (its shape, Adam moments and nuisances kept), as
+    /// the swap test starts a candidate.
+    fn with_pose(&self, base: &FitState, pose: &Pose) -> FitState {
+        let mut state = base.clone();
+        state.params[..self.pose_len].copy_from_slice(&pose.to_params());
+        // The last self-intersection check was of the other pose.
+        state.intersection = None;
+        state
+    }
+
+    /// `pose` refined `steps` unblurred steps from `base` as the swap test refines a candidate
+    /// ([`PoseFit::with_pose`]): the refined state and its energy. Leaves the blur at 0 and the
+    /// fit at some state of the refinement (set the one wanted after).
+    pub(in crate::pose::fit) fn refine_pose(&mut self, base: FitState, pose: &Pose, steps: u32) -> Result<Hypothesis> {
+        let start = self.with_pose(&base, pose);
+        let mut refined = self.run_states(vec![start], 0.0, steps)?;
+        Ok(refined.pop().expect("one state in, one out"))
     }
 }
 

@@ -1,13 +1,16 @@
-//! The second run of `fit::fit` from the legs crossed over (`crossed_legs`,
-//! `FitOptions::crossed_legs_within`): the candidate turns each leg bone to point at the other
-//! leg's joint and changes nothing else; the fit keeps whichever run ends lower and ends at that
-//! run's energy; a fit whose legs hold each other's places ends with them in their own; the
-//! second run can be switched off and cancelled, and a bad bound is an error.
+//! The legs crossed over in `fit::fit` (`crossed_legs`, `FitOptions::crossed_legs_within`): the
+//! candidate turns each leg bone to point at the other leg's joint and changes nothing else; the
+//! fit refines it a few steps and runs a second time from it when it is close, keeps whichever
+//! of the three ends lowest and ends at that energy; a fit whose legs hold each other's places ends
+//! with them in their own, by the second run or by the refinement alone; the second run can be
+//! switched off and cancelled, and a bad bound is an error.
 
 use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{crossed_legs, fit, per_vertex_error, random_pose, FitOptions, Progress, Stop};
+use diffsil::pose::fit::{
+    crossed_legs, fit, per_vertex_error, random_pose, CrossedLegsEnd, CrossedLegsReport, FitOptions, Progress, Stop,
+};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Error, Mat3, RenderSettings, Renderer, Vec3};
 
@@ -104,7 +107,7 @@ fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
     let second = crossed.report.as_ref().expect("the second run ran");
     assert_eq!(calls, fitted.report.steps + second.steps);
     assert!(crossed.changed_ratio <= FitOptions::CROSSED_LEGS_WITHIN, "{crossed:?}");
-    assert!(crossed.kept, "{crossed:?}");
+    assert_eq!(crossed.end, CrossedLegsEnd::SecondRun, "{crossed:?}");
     let mut ended = fitted.fit;
     assert_eq!(Some(ended.energy().unwrap()), crossed.energy);
     let error = per_vertex_error(&ended.vertices().unwrap(), &truth_vertices);
@@ -129,9 +132,10 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     let crossed = fitted.crossed_legs.clone().expect("looked at");
     let second = crossed.energy.expect("ran to its end");
     assert_eq!(crossed.report.as_ref().map(|r| r.stop == Stop::Cancelled), Some(false));
-    assert_eq!(crossed.kept, second < crossed.fitted_energy, "{crossed:?}");
+    assert_eq!(crossed.end, lowest(&crossed), "{crossed:?}");
+    let refined = crossed.refined_energy.expect("swap steps on");
     let mut kept = fitted.fit;
-    assert_eq!(kept.energy().unwrap(), second.min(crossed.fitted_energy), "{crossed:?}");
+    assert_eq!(kept.energy().unwrap(), second.min(refined).min(crossed.fitted_energy), "{crossed:?}");
     let first_steps = fitted.report.steps;
     // Off, or no pose fitted: not looked at.
     let off = FitOptions { crossed_legs_within: 0.0, ..base.clone() };
@@ -143,10 +147,17 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     // The first run alone ends where the fit with a second run does when that is not kept.
     let mut first_only = first_only.fit;
     assert_eq!(first_only.energy().unwrap(), crossed.fitted_energy);
-    if !crossed.kept {
+    if crossed.end == CrossedLegsEnd::FirstRun {
         assert_eq!(kept.pose(), first_only.pose());
     }
-    // Cancelled three steps into the second run: back where the first ended.
+    // No swap steps: nothing refined.
+    let unrefined = FitOptions { swap_steps: 0, ..options.clone() };
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unrefined, go_on).unwrap();
+    let report = fitted.crossed_legs.expect("looked at");
+    assert_eq!(report.refined_energy, None);
+    assert_ne!(report.end, CrossedLegsEnd::Refined);
+    // Cancelled three steps into the second run: back where the first ended, or at the refined
+    // crossed legs where they ended lower.
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, p| {
         if p.step > first_steps + 3 {
             ControlFlow::Break(())
@@ -156,12 +167,17 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     })
     .unwrap();
     let crossed = fitted.crossed_legs.expect("looked at");
-    let second = crossed.report.expect("started");
-    assert_eq!((second.stop, second.steps, crossed.energy, crossed.kept), (Stop::Cancelled, 4, None, false));
+    let second = crossed.report.clone().expect("started");
+    assert_eq!((second.stop, second.steps, crossed.energy), (Stop::Cancelled, 4, None));
     assert!(crossed.swap.is_none());
+    assert_eq!(crossed.end, lowest(&crossed), "{crossed:?}");
     let mut cancelled = fitted.fit;
-    assert_eq!(cancelled.pose(), first_only.pose());
-    assert_eq!(cancelled.energy().unwrap(), crossed.fitted_energy);
+    if crossed.end == CrossedLegsEnd::FirstRun {
+        assert_eq!(cancelled.pose(), first_only.pose());
+        assert_eq!(cancelled.energy().unwrap(), crossed.fitted_energy);
+    } else {
+        assert_eq!(Some(cancelled.energy().unwrap()), crossed.refined_energy);
+    }
     for bad in [f64::NAN, -1.0, f64::INFINITY] {
         for options in [
             FitOptions { crossed_legs_within: bad, ..base.clone() },
@@ -201,4 +217,60 @@ fn a_looser_ratio_runs_the_second_run_when_the_excess_per_changed_pixel_is_small
     if excess > 0.0 {
         assert!(run(&loose(ratio, 0.999 * excess)).report.is_none());
     }
+}
+
+/// Where a fit with this report should end: the lowest energy, the earlier of equal ones.
+fn lowest(report: &CrossedLegsReport) -> CrossedLegsEnd {
+    let mut end = (CrossedLegsEnd::FirstRun, report.fitted_energy);
+    for candidate in [(CrossedLegsEnd::Refined, report.refined_energy), (CrossedLegsEnd::SecondRun, report.energy)] {
+        if let (kind, Some(energy)) = candidate {
+            if energy < end.1 {
+                end = (kind, energy);
+            }
+        }
+    }
+    end.0
+}
+
+#[test]
+fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
+    // A fit of a few steps from the truth with its legs crossed over, which leaves them there;
+    // its crossed legs (near the truth) pass the second run's bound, and the second run is
+    // cancelled at its first step, so only the refinement can move the legs back.
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 109);
+    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
+    let (cameras, targets) = views(&model, &truth, 32);
+    let truth_vertices = model.skin(&truth).unwrap();
+    let options = FitOptions { steps: 8, initial: Some(wrong), swap_steps: 5, ..FitOptions::default() };
+    let first_only = FitOptions { crossed_legs_within: 0.0, ..options.clone() };
+    let alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &first_only, go_on).unwrap();
+    let first_steps = alone.report.steps;
+    let mut calls = 0;
+    let fitted = fit(model, cameras, targets, renderer(), &options, |_, p| {
+        calls += 1;
+        if p.step > first_steps {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    let crossed = fitted.crossed_legs.as_ref().expect("looked at");
+    assert_eq!(crossed.report.as_ref().map(|r| (r.stop, r.steps)), Some((Stop::Cancelled, 1)), "{crossed:?}");
+    assert_eq!(calls, first_steps + 1, "the refinement's steps are not the callback's");
+    let refined = crossed.refined_energy.expect("refined where the second run runs");
+    assert!(refined < crossed.fitted_energy, "{crossed:?}");
+    assert_eq!(crossed.end, CrossedLegsEnd::Refined);
+    let mut ended = fitted.fit;
+    assert_eq!(ended.energy().unwrap(), refined);
+    let error = per_vertex_error(&ended.vertices().unwrap(), &truth_vertices);
+    let alone_error = per_vertex_error(&alone.fit.vertices().unwrap(), &truth_vertices);
+    assert!(error < 0.5 * alone_error, "refined {error} m, the first run alone {alone_error} m");
+    // A bound no crossed pose meets: neither the refinement nor the second run.
+    let far = FitOptions { crossed_legs_within: 1e-9, crossed_legs_excess: 0.0, ..options };
+    let (cameras, targets) = views(&builtin_figure(), &truth, 32);
+    let fitted = fit(builtin_figure(), cameras, targets, renderer(), &far, go_on).unwrap();
+    let crossed = fitted.crossed_legs.expect("looked at");
+    assert_eq!((crossed.refined_energy, crossed.end), (None, CrossedLegsEnd::FirstRun), "{crossed:?}");
 }
