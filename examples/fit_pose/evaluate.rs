@@ -59,12 +59,10 @@ pub fn evaluate(
             outcome.seconds,
             outcome.swap.map_or(String::new(), |s| format!(", swapped {s:?}")),
             match outcome.crossed {
+                Some((true, CrossedLegsEnd::FirstRun)) => ", runs from the legs crossed over: not kept",
+                Some((_, CrossedLegsEnd::Refined)) => ", the legs crossed over refined: kept",
                 Some((_, CrossedLegsEnd::SecondRun)) => ", second run from the legs crossed over: kept",
-                Some((true, CrossedLegsEnd::Refined)) => {
-                    ", second run from the legs crossed over: not kept, the crossed legs refined: kept"
-                }
-                Some((true, CrossedLegsEnd::FirstRun)) => ", second run from the legs crossed over: not kept",
-                Some((false, CrossedLegsEnd::Refined)) => ", the legs crossed over refined: kept",
+                Some((_, CrossedLegsEnd::ThirdRun)) => ", third run (from the legs crossed over alone): kept",
                 Some((false, CrossedLegsEnd::FirstRun)) | None => "",
             }
         );

@@ -347,7 +347,7 @@ struct Outcome {
     height_m: f64,
     seconds: f64,
     backend: String,
-    /// Adam steps, a second run's included.
+    /// Adam steps, the runs from the crossed legs included.
     steps: u32,
     stop: Stop,
     /// The swap the swap test kept, if any.
@@ -411,8 +411,8 @@ fn fit_seed(
         })?;
     let (mut fit, run) = (fitted.fit, fitted.report);
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
+    let energy = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3e}"));
     if let (false, Some(report)) = (quiet, &fitted.swap) {
-        let energy = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3e}"));
         let candidates: Vec<String> = report
             .candidates
             .iter()
@@ -426,17 +426,18 @@ fn fit_seed(
         );
     }
     let crossed = fitted.crossed_legs.as_ref().map(|c| (c.report.is_some(), c.end));
-    let second_steps = fitted.crossed_legs.as_ref().and_then(|c| c.report.as_ref()).map_or(0, |r| r.steps);
+    let second_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
     if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
         println!(
             "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
-             {:.3} more per pixel there) → {}; the fit ends at {:?}",
+             {:.3} more per pixel there) → {}, alone → {}; the fit ends at {:?}",
             c.fitted_energy,
             c.start_energy,
-            c.refined_energy.map_or("-".to_string(), |e| format!("{e:.3e}")),
+            energy(c.refined_energy),
             c.changed_ratio,
             c.changed_excess,
-            c.energy.map_or("not run".to_string(), |e| format!("{e:.3e}")),
+            energy(c.energy),
+            energy(c.third_energy),
             c.end
         );
     }

@@ -2,8 +2,8 @@
 
 use std::ops::ControlFlow;
 
-use super::descent::changed_pixels;
-use super::{crossed_legs, limb_swing_hypotheses, Convergence, Free, PoseFit, Progress, RunReport, Schedule};
+use super::crossed_runs::runs_from_crossed_legs;
+use super::{limb_swing_hypotheses, Convergence, CrossedLegsReport, Free, PoseFit, Progress, RunReport, Schedule};
 use super::{FitSettings, Stage, Stop, SwapReport, SwapScreen};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Renderer, Result};
@@ -117,25 +117,29 @@ pub struct FitOptions {
     /// ([`SwapScreen`]; [`SwapScreen::ALL`] refines every one). Default
     /// [`SwapScreen::default`]: the lowest and any within three times the pose's energy.
     pub swap_screen: SwapScreen,
-    /// When the pose with the legs moved onto each other's places ([`crossed_legs`], taken on
-    /// the fitted pose after the swap test) matches the targets at most this many times worse
-    /// than the fitted pose where their renders differ (the squared error over the pixels whose
-    /// value differs between the two, each rendered with the fit's outline, the candidate's over
-    /// the fit's; [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
+    /// When the pose with the legs moved onto each other's places
+    /// ([`crossed_legs`](super::crossed_legs), taken on the fitted pose after the swap test)
+    /// matches the targets at most this many times worse than the fitted pose where their
+    /// renders differ (the squared error over the pixels whose value differs between the two,
+    /// each rendered with the fit's outline, the candidate's over the fit's;
+    /// [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
-    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs a second time
-    /// from it (every stage and the swap test, as the first) and keeps whichever of the three
-    /// ends with the lowest energy ([`PoseFit::energy`]); 0: never (neither rule). Only with
+    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs twice more
+    /// from it (every stage and the swap test: a second run from starting poses about it, as the
+    /// first run, and a third from it alone) and keeps whichever ends with the lowest energy
+    /// ([`PoseFit::energy`]; [`CrossedLegsReport::end`]); 0: never (neither rule). Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
     ///
     /// The descent leaves crossed or close legs in each other's places now and then (the
     /// built-in figure: 4 of seeds 81–130). Refining the candidate a few steps, as the swap test
     /// does, is seldom enough: the pelvis and the spine have settled around the wrong legs, so it
-    /// takes the blurred stages again. Seldom is not never: in one of the built-in figure's
-    /// 1,000 fits looked at (seed 433) the refined candidate ends lowest, its second run higher
-    /// than the first (64.9 → 8.4 mm). Over the built-in figure's seeds 31–230 the ratio was
-    /// 1.7–5.1 in ten of the eleven fits where a second run ends lower (58.7 in the eleventh,
-    /// 12.8 mm off), 3.1 in one where it does not, and above 5.4 in the 188 others. The ratio
+    /// takes the blurred stages again. But the second run's starting poses, tried under the
+    /// coarsest blur, now and then lead back to the legs the first run ended with; the third run
+    /// keeps the legs crossed over, and the energy chooses (the built-in figure's seeds
+    /// 31–1060: failures 10 → 6, see `docs/pose-fit-evaluation.md`). Over the built-in figure's
+    /// seeds 31–230 the ratio was 1.7–5.1 in ten of the eleven fits where a second run ends
+    /// lower (58.7 in the eleventh, 12.8 mm off), 3.1 in one where it does not, and above 5.4 in
+    /// the 188 others. The ratio
     /// of the whole energies separates them as well on exact masks, but not on noisy ones:
     /// with 2% of the pixels flipped every pose's energy holds the same large floor, every ratio
     /// is near 1, and every fit would run twice.
@@ -310,58 +314,9 @@ pub struct Fitted {
     /// when it did not run.
     pub swap: Option<SwapReport>,
     /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the second
-    /// run from them, and where the fit ends; `None` when the crossed pose was not looked at
-    /// (switched off, a skeleton without a pair of legs, a cancelled first run).
+    /// and third runs from them, and where the fit ends; `None` when the crossed pose was not
+    /// looked at (switched off, a skeleton without a pair of legs, a cancelled first run).
     pub crossed_legs: Option<CrossedLegsReport>,
-}
-
-/// Where [`fit`] ends once it has looked at the legs crossed over ([`CrossedLegsReport::end`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CrossedLegsEnd {
-    /// Where the first run and its swap test ended.
-    FirstRun,
-    /// At the crossed pose refined [`FitOptions::swap_steps`] unblurred steps from the first
-    /// run's end ([`CrossedLegsReport::refined_energy`]).
-    Refined,
-    /// Where the second run from the crossed pose and its swap test ended.
-    SecondRun,
-}
-
-/// What [`fit`] did with the legs crossed over ([`crossed_legs`]): the crossed pose refined a
-/// few steps, the second run from it, and which the fit kept.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CrossedLegsReport {
-    /// The energy ([`PoseFit::energy`]) where the first run and its swap test ended.
-    pub fitted_energy: f64,
-    /// The crossed pose's energy as it is (Adam and the nuisances fresh, as a run starts).
-    pub start_energy: f64,
-    /// The crossed pose's energy after [`FitOptions::swap_steps`] unblurred steps from where the
-    /// first run ended (its Adam moments and nuisances), as the swap test refines its
-    /// candidates; refined where the second run runs, before it. `None` when `swap_steps` is 0
-    /// or the second run does not run.
-    pub refined_energy: Option<f64>,
-    /// The crossed pose's squared error against the targets over the pixels where its renders
-    /// differ from the fitted pose's, over the fitted pose's there (both rendered with the fit's
-    /// outline); infinite when the fit is exact there or nothing differs. What
-    /// [`FitOptions::crossed_legs_within`] bounds.
-    pub changed_ratio: f64,
-    /// The crossed pose's squared error minus the fitted pose's over the same pixels, per
-    /// pixel (a mean in [−1, 1]); infinite when nothing differs. What
-    /// [`FitOptions::crossed_legs_excess`] bounds.
-    pub changed_excess: f64,
-    /// The second run's report; `None` when it did not run (`changed_ratio` above
-    /// [`FitOptions::crossed_legs_within`], and above [`FitOptions::crossed_legs_loose_within`]
-    /// or `changed_excess` above [`FitOptions::crossed_legs_excess`]). Its steps follow the
-    /// first run's in the [`Progress`] passed to the callback.
-    pub report: Option<RunReport>,
-    /// The second run's swap test; `None` when it did not run.
-    pub swap: Option<SwapReport>,
-    /// The energy where the second run and its swap test ended; `None` when it did not run or
-    /// was cancelled.
-    pub energy: Option<f64>,
-    /// Where the fit ends: the lowest of `fitted_energy`, `refined_energy` and `energy`, the
-    /// earlier of equal ones in that order.
-    pub end: CrossedLegsEnd,
 }
 
 /// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
@@ -372,9 +327,10 @@ pub struct CrossedLegsReport {
 /// user interface sets), which then ends at its current pose with
 /// [`Stop::Cancelled`](super::Stop::Cancelled). When the legs crossed over match the targets
 /// nearly as well as the first run's result ([`FitOptions::crossed_legs_within`]), they are
-/// refined a few steps ([`FitOptions::swap_steps`]) and a second run starts from them; the
-/// lowest of the three is kept. The second run's steps follow the first run's in the
-/// callback's [`Progress`], and cancelling it ends the fit at the lower of the other two.
+/// refined a few steps ([`FitOptions::swap_steps`]) and two more runs start from them (with
+/// starting poses about them, and from them alone); the lowest end is kept. Those runs' steps
+/// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
+/// lowest of the others.
 ///
 /// ```
 /// use std::ops::ControlFlow;
@@ -460,89 +416,17 @@ pub fn fit(
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;
     let (report, swap) = run_and_swap(&mut fit, options, &schedule, &hypotheses, &mut on_step)?;
-    let crossed = if options.fit_pose && options.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
-        crossed_legs(fit.model(), &fit.pose())?
+    let crossed_legs = if options.fit_pose && options.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
+        runs_from_crossed_legs(&mut fit, options, &schedule, report.steps, outline_rate, &mut on_step)?
     } else {
         None
     };
-    let Some(crossed) = crossed else { return Ok(Fitted { fit, report, swap, crossed_legs: None }) };
-    let (first, first_outline_rate, outline) = (fit.state(), fit.outline_rate(), fit.outline());
-    // One render of each pose serves its energy and the ratio: the fitted pose's under its
-    // outline, the crossed one's energy as a run starts (no outline) and its renders under the
-    // fit's outline.
-    let (fitted_energy, fitted_renders) = fit.energy_and_renders()?;
-    let fitted_images = fit.outlined(&fitted_renders);
-    fit.restart(&crossed)?;
-    let (start_energy, crossed_renders) = fit.energy_and_renders()?;
-    fit.set_outline(outline)?;
-    let changed = changed_pixels(&fit.outlined(&crossed_renders), &fitted_images, fit.targets());
-    let mut outcome = CrossedLegsReport {
-        fitted_energy,
-        start_energy,
-        changed_ratio: changed.ratio,
-        changed_excess: changed.excess,
-        refined_energy: None,
-        report: None,
-        swap: None,
-        energy: None,
-        end: CrossedLegsEnd::FirstRun,
-    };
-    let close = changed.ratio <= options.crossed_legs_within
-        || (options.crossed_legs_excess > 0.0
-            && changed.ratio <= options.crossed_legs_loose_within
-            && changed.excess <= options.crossed_legs_excess);
-    let mut refined = None;
-    if close && options.swap_steps > 0 {
-        // The crossed pose refined as a swap candidate is, from the fitted state: now and then
-        // lower than both runs (the built-in figure's seed 433: 64.9 → 8.4 mm, its second run
-        // ending higher than the first). Then back to the crossed pose as the second run starts.
-        let h = fit.refine_pose(first.clone(), &crossed, options.swap_steps)?;
-        outcome.refined_energy = Some(h.energy);
-        refined = Some(h.state);
-        fit.restart(&crossed)?;
-        fit.set_outline(outline)?;
-    }
-    if close {
-        // The second run as the first: the same schedule, its starting poses about the crossed
-        // one (a stage's outline settle may have switched the outline off in the first), its
-        // steps numbered on from the first run's.
-        let (_, starts) = FitOptions { initial: Some(crossed), ..options.clone() }.plan(fit.model())?;
-        if options.fit_outline {
-            fit.set_outline_rate(outline_rate)?;
-        }
-        let offset = report.steps;
-        let mut on_second_step =
-            |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-        let (second, second_swap) = run_and_swap(&mut fit, options, &schedule, &starts, &mut on_second_step)?;
-        if second.stop != Stop::Cancelled {
-            outcome.energy = Some(fit.energy()?);
-        }
-        outcome.report = Some(second);
-        outcome.swap = second_swap;
-    }
-    let mut lowest = fitted_energy;
-    for (end, energy) in
-        [(CrossedLegsEnd::Refined, outcome.refined_energy), (CrossedLegsEnd::SecondRun, outcome.energy)]
-    {
-        if let Some(energy) = energy.filter(|&e| e < lowest) {
-            (outcome.end, lowest) = (end, energy);
-        }
-    }
-    let state = match outcome.end {
-        CrossedLegsEnd::FirstRun => Some(first),
-        CrossedLegsEnd::Refined => refined,
-        CrossedLegsEnd::SecondRun => None,
-    };
-    if let Some(state) = state {
-        fit.set_state(state)?;
-        fit.set_outline_rate(first_outline_rate)?;
-    }
-    Ok(Fitted { fit, report, swap, crossed_legs: Some(outcome) })
+    Ok(Fitted { fit, report, swap, crossed_legs })
 }
 
 /// One run of `schedule` from `starts`, then the swap test ([`FitOptions::swap_steps`]) unless
 /// the run was cancelled.
-fn run_and_swap(
+pub(super) fn run_and_swap(
     fit: &mut PoseFit,
     options: &FitOptions,
     schedule: &Schedule,
