@@ -13,13 +13,35 @@ use diffsil::pose::fit::{
     crossed_legs, fit, per_vertex_error, random_pose, CrossedLegsEnd, CrossedLegsReport, FitOptions, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Error, Mat3, RenderSettings, Renderer, Vec3};
+use diffsil::{Camera, Error, Image, Mat3, RenderSettings, Renderer, Vec3};
 
 use super::swap::views;
 
 /// The built-in figure's joint named `name`.
 fn joint(model: &SkinnedMesh, name: &str) -> usize {
     model.skeleton.names.iter().position(|n| n == name).unwrap_or_else(|| panic!("no joint {name}"))
+}
+
+/// A fit whose legs start in each other's places: the built-in figure, a random truth, the truth
+/// with its legs crossed over (where such fits end), 4 views of the truth at 32² and the truth's
+/// vertices.
+struct CrossedStart {
+    model: SkinnedMesh,
+    truth: Pose,
+    wrong: Pose,
+    cameras: Vec<Camera>,
+    targets: Vec<Image>,
+    truth_vertices: Vec<Vec3>,
+}
+
+/// [`CrossedStart`] for `random_pose`'s `seed`.
+fn crossed_start(seed: u64) -> CrossedStart {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), seed);
+    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
+    let (cameras, targets) = views(&model, &truth, 32);
+    let truth_vertices = model.skin(&truth).unwrap();
+    CrossedStart { model, truth, wrong, cameras, targets, truth_vertices }
 }
 
 fn renderer() -> Renderer {
@@ -88,11 +110,7 @@ fn a_skeleton_without_legs_or_a_wrong_pose_has_no_crossed_legs() {
 fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
     // The truth with its legs crossed over is where such fits end; a short fit from there keeps
     // them there, and the runs from the crossed pose of its result (near the truth) win.
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 109);
-    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
-    let (cameras, targets) = views(&model, &truth, 32);
-    let truth_vertices = model.skin(&truth).unwrap();
+    let CrossedStart { model, truth, wrong, cameras, targets, truth_vertices } = crossed_start(109);
     let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
     let options = FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, ..FitOptions::default() };
     let mut calls = 0;
@@ -269,11 +287,7 @@ fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
     // A fit of a few steps from the truth with its legs crossed over, which leaves them there;
     // its crossed legs (near the truth) pass the second run's bound, and the second run is
     // cancelled at its first step, so only the refinement can move the legs back.
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 109);
-    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
-    let (cameras, targets) = views(&model, &truth, 32);
-    let truth_vertices = model.skin(&truth).unwrap();
+    let CrossedStart { model, truth, wrong, cameras, targets, truth_vertices } = crossed_start(109);
     let options = FitOptions { steps: 8, initial: Some(wrong), swap_steps: 5, ..FitOptions::default() };
     let first_only = FitOptions { crossed_legs_within: 0.0, ..options.clone() };
     let alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &first_only, go_on).unwrap();
@@ -312,11 +326,7 @@ fn the_third_run_from_the_crossed_legs_alone_is_kept_where_it_ends_lowest() {
     // As above, from the truth of another seed with its legs crossed over: here the run from
     // the crossed pose alone ends lower than the one from starting poses about it (measured:
     // 2.4e-4 against 4.0e-4, both far below the first run's 3.7e-3).
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 124);
-    let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
-    let (cameras, targets) = views(&model, &truth, 32);
-    let truth_vertices = model.skin(&truth).unwrap();
+    let CrossedStart { model, wrong, cameras, targets, truth_vertices, .. } = crossed_start(124);
     let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
     let options = FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, ..FitOptions::default() };
     let fitted = fit(model, cameras, targets, renderer(), &options, go_on).unwrap();
