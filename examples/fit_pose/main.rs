@@ -143,9 +143,9 @@ pub struct Options {
     /// pose's [default: SwapScreen::default, 3]
     #[arg(long, value_name = "X", value_parser = finite)]
     swap_within: Option<f32>,
-    /// A second run from the legs moved onto each other's places when that pose matches the
-    /// masks at most X times worse than the fitted pose where their renders differ; the lower of
-    /// the two runs is kept; 0: never [default: FitOptions::CROSSED_LEGS_WITHIN, 5]
+    /// Runs from the legs moved onto each other's places (refined, a second and a third run) when
+    /// that pose matches the masks at most X times worse than the fitted pose where their renders
+    /// differ; the lowest end is kept; 0: never [default: FitOptions::CROSSED_LEGS_WITHIN, 5]
     #[arg(long, value_name = "X", value_parser = finite)]
     crossed_legs: Option<f32>,
     /// The second run also when that ratio is at most X and the crossed pose's squared error

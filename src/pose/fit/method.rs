@@ -139,10 +139,9 @@ pub struct FitOptions {
     /// 31–1060: failures 10 → 6, see `docs/pose-fit-evaluation.md`). Over the built-in figure's
     /// seeds 31–230 the ratio was 1.7–5.1 in ten of the eleven fits where a second run ends
     /// lower (58.7 in the eleventh, 12.8 mm off), 3.1 in one where it does not, and above 5.4 in
-    /// the 188 others. The ratio
-    /// of the whole energies separates them as well on exact masks, but not on noisy ones:
-    /// with 2% of the pixels flipped every pose's energy holds the same large floor, every ratio
-    /// is near 1, and every fit would run twice.
+    /// the 188 others. The ratio of the whole energies separates them as well on exact masks,
+    /// but not on noisy ones: with 2% of the pixels flipped every pose's energy holds the same
+    /// large floor, every ratio is near 1, and every fit would run twice.
     pub crossed_legs_within: f64,
     /// A looser bound on the same ratio, finite and ≥ 0: the second run runs as well when the
     /// ratio is at most this and the crossed pose's squared error exceeds the fitted pose's by
