@@ -59,7 +59,8 @@ pub struct CrossedLegsReport {
     pub energy: Option<f64>,
     /// The third run's report: the same stages from the crossed pose alone (no starting poses
     /// tried about it, which now and then lead back to the legs the first run ended with).
-    /// It runs after a second run that was not cancelled; its steps follow the second run's.
+    /// It runs after a second run that was not cancelled and had more than one starting pose
+    /// (with one, the second run is that run already); its steps follow the second run's.
     pub third_report: Option<RunReport>,
     /// The third run's swap test; `None` when it did not run.
     pub third_swap: Option<SwapReport>,
@@ -147,11 +148,16 @@ pub(super) fn runs_from_crossed_legs(
     })?;
     offset += second.steps;
     let second_done = second.stop != Stop::Cancelled;
+    // With one starting pose (no blurred stages, or no limb swings) the second run already is
+    // a run from the crossed pose alone.
+    let third_differs = starts.len() > 1;
     (outcome.report, outcome.swap) = (Some(second), second_swap);
     let mut second_end = None;
     if second_done {
         outcome.energy = Some(fit.energy()?);
         second_end = Some((fit.state(), fit.outline_rate()));
+    }
+    if second_done && third_differs {
         // The third run: the same stages from the crossed pose alone. The second run's starting
         // poses are tried under the coarsest blur, where one of them now and then slides back to
         // the legs the first run ended with; from the crossed pose alone the legs stay crossed

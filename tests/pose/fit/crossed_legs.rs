@@ -196,6 +196,13 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     if crossed.end == CrossedLegsEnd::FirstRun {
         assert_eq!(kept.pose(), first_only.pose());
     }
+    // One starting pose (no blurred stages): the second run is the run from the crossed pose
+    // alone, and no third runs.
+    let unblurred = FitOptions { coarse_blur: 0.0, ..options.clone() };
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unblurred, go_on).unwrap();
+    let report = fitted.crossed_legs.expect("looked at");
+    assert_eq!(report.report.as_ref().map(|r| r.hypothesis_energies.len()), Some(1), "{report:?}");
+    assert!(report.third_report.is_none() && report.third_energy.is_none(), "{report:?}");
     // No swap steps: nothing refined.
     let unrefined = FitOptions { swap_steps: 0, ..options.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unrefined, go_on).unwrap();
