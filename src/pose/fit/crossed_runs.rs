@@ -128,12 +128,10 @@ pub(super) fn runs_from_crossed_legs(
     if options.swap_steps > 0 {
         // The crossed pose refined as a swap candidate is, from the fitted state: now and then
         // lower than the runs (the built-in figure's seed 433: 64.9 → 8.4 mm, its second run
-        // ending higher than the first). Then back to the crossed pose as the second run starts.
+        // ending higher than the first). The runs below restart from their own starting poses.
         let h = fit.refine_pose(first.clone(), &crossed, options.swap_steps)?;
         outcome.refined_energy = Some(h.energy);
         refined = Some(h.state);
-        fit.restart(&crossed)?;
-        fit.set_outline(outline)?;
     }
     // The second run as the first: the same schedule, its starting poses about the crossed one
     // (a stage's outline settle may have switched the outline off in the first), its steps
@@ -163,8 +161,6 @@ pub(super) fn runs_from_crossed_legs(
         // the legs the first run ended with; from the crossed pose alone the legs stay crossed
         // over, and the energy tells which run to keep (`docs/pose-fit-evaluation.md`).
         let alone = Schedule { hypothesis_steps: 0, ..schedule.clone() };
-        fit.restart(&crossed)?;
-        fit.set_outline(outline)?;
         if options.fit_outline {
             fit.set_outline_rate(outline_rate)?;
         }
