@@ -147,9 +147,10 @@
 //!     fit refines it a few steps as the swap test refines a candidate, runs the whole method
 //!     again from it twice (from starting poses about it, as the first run, and from it alone:
 //!     the starting poses now and then lead back to the legs the first run ended with) and
-//!     keeps whichever ends with the lowest energy ([`CrossedLegsEnd`]). On the built-in figure's seeds 31–230 the second run ran in 10 of the 200 fits
-//!     and took the failures (more than 2% of the height off) from 8 to 1, and on seeds
-//!     231–330, which played no part in choosing the first bound, from 9 to 1 (11 second runs);
+//!     keeps whichever ends with the lowest energy ([`CrossedLegsEnd`]). On the built-in
+//!     figure's seeds 31–230 the second run ran in 10 of the 200 fits and took the failures
+//!     (more than 2% of the height off) from 8 to 1, and on seeds 231–330, which played no part
+//!     in choosing the first bound, from 9 to 1 (11 second runs);
 //!     the looser rule, set on seeds 31–380, improved 7 more of those fits (over 31–380: p90
 //!     11.2 → 9.4 mm, failures 3 → 2), 1 of the fresh seeds 381–480 and RiggedFigure's two
 //!     failures of seeds 1–20; the MakeHuman body's fits seldom meet either bound. The
