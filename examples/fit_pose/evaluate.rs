@@ -2,7 +2,7 @@
 //! frames) and the paper's Table 2 (`--ablation`): errors, their median, p90 and worst,
 //! failures, wall and CPU time.
 
-use diffsil::pose::fit::CrossedLegsEnd;
+use diffsil::pose::fit::{CrossedLegsEnd, CrossedRunStart};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 
 use super::common::median;
@@ -61,8 +61,15 @@ pub fn evaluate(
             match outcome.crossed {
                 Some((true, CrossedLegsEnd::FirstRun)) => ", runs from the legs crossed over: not kept",
                 Some((_, CrossedLegsEnd::Refined)) => ", the legs crossed over refined: kept",
-                Some((_, CrossedLegsEnd::SecondRun)) => ", second run from the legs crossed over: kept",
-                Some((_, CrossedLegsEnd::ThirdRun)) => ", third run (from the legs crossed over alone): kept",
+                Some((_, CrossedLegsEnd::Run(CrossedRunStart::AboutCrossed))) => {
+                    ", second run from the legs crossed over: kept"
+                }
+                Some((_, CrossedLegsEnd::Run(CrossedRunStart::CrossedAlone))) => {
+                    ", third run (from the legs crossed over alone): kept"
+                }
+                Some((_, CrossedLegsEnd::Run(CrossedRunStart::AboutCrossedWithoutCoarsest))) => {
+                    ", fourth run (from the legs crossed over, without the coarsest stage): kept"
+                }
                 Some((false, CrossedLegsEnd::FirstRun)) | None => "",
             }
         );

@@ -143,9 +143,10 @@ pub struct Options {
     /// pose's [default: SwapScreen::default, 3]
     #[arg(long, value_name = "X", value_parser = finite)]
     swap_within: Option<f32>,
-    /// Runs from the legs moved onto each other's places (refined, a second and a third run) when
-    /// that pose matches the masks at most X times worse than the fitted pose where their renders
-    /// differ; the lowest end is kept; 0: never [default: FitOptions::CROSSED_LEGS_WITHIN, 5]
+    /// Runs from the legs moved onto each other's places (refined, a second, third and fourth
+    /// run) when that pose matches the masks at most X times worse than the fitted pose where
+    /// their renders differ; the lowest end is kept; 0: never [default:
+    /// FitOptions::CROSSED_LEGS_WITHIN, 5]
     #[arg(long, value_name = "X", value_parser = finite)]
     crossed_legs: Option<f32>,
     /// The second run also when that ratio is at most X and the crossed pose's squared error
@@ -157,6 +158,11 @@ pub struct Options {
     /// [default: FitOptions::CROSSED_LEGS_EXCESS, 0.1]
     #[arg(long, value_name = "X", value_parser = finite)]
     crossed_legs_excess: Option<f32>,
+    /// The fourth run from the crossed legs (without the coarsest stage) kept only where it ends
+    /// at most X times the other ends' lowest energy; 0: none [default:
+    /// FitOptions::FOURTH_RUN_BELOW, 0.5]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    fourth_run_below: Option<f32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -336,6 +342,7 @@ fn fit_options(o: &Options) -> FitOptions {
         crossed_legs_within: o.crossed_legs.map_or(defaults.crossed_legs_within, f64::from),
         crossed_legs_loose_within: o.crossed_legs_loose.map_or(defaults.crossed_legs_loose_within, f64::from),
         crossed_legs_excess: o.crossed_legs_excess.map_or(defaults.crossed_legs_excess, f64::from),
+        fourth_run_below: o.fourth_run_below.map_or(defaults.fourth_run_below, f64::from),
         ..defaults
     }
 }
@@ -425,19 +432,18 @@ fn fit_seed(
             candidates.join(", ")
         );
     }
-    let crossed = fitted.crossed_legs.as_ref().map(|c| (c.report.is_some(), c.end));
+    let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
     let second_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
     if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
         println!(
             "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
-             {:.3} more per pixel there) → {}, alone → {}; the fit ends at {:?}",
+             {:.3} more per pixel there), runs from it → {}; the fit ends at {:?}",
             c.fitted_energy,
             c.start_energy,
             energy(c.refined_energy),
             c.changed_ratio,
             c.changed_excess,
-            energy(c.energy),
-            energy(c.third_energy),
+            c.runs.iter().map(|r| format!("{:?} {}", r.start, energy(r.energy))).collect::<Vec<_>>().join(", "),
             c.end
         );
     }

@@ -124,9 +124,11 @@ pub struct FitOptions {
     /// each rendered with the fit's outline, the candidate's over the fit's;
     /// [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
-    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs twice more
-    /// from it (every stage and the swap test: a second run from starting poses about it, as the
-    /// first run, and a third from it alone) and keeps whichever ends with the lowest energy
+    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs three more
+    /// times from it (the stages and the swap test: a second run from starting poses about it,
+    /// as the first run, a third from it alone, and a fourth from the starting poses about it
+    /// without the coarsest stage; [`CrossedRunStart`](super::CrossedRunStart)) and keeps
+    /// whichever ends with the lowest energy
     /// ([`PoseFit::energy`]; [`CrossedLegsReport::end`]); 0: never (neither rule). Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
     ///
@@ -136,7 +138,9 @@ pub struct FitOptions {
     /// takes the blurred stages again. But the second run's starting poses, tried under the
     /// coarsest blur, now and then lead back to the legs the first run ended with; the third run
     /// keeps the legs crossed over, and the energy chooses (the built-in figure's seeds
-    /// 31–1060: failures 10 → 6, see `docs/pose-fit-evaluation.md`). Over the built-in figure's
+    /// 31–1060: failures 10 → 6, see `docs/pose-fit-evaluation.md`). Now and then the coarsest
+    /// blur undoes the crossing from the crossed pose alone as well, which the fourth run,
+    /// without that stage, keeps ([`FitOptions::fourth_run_below`]). Over the built-in figure's
     /// seeds 31–230 the ratio was 1.7–5.1 in ten of the eleven fits where a second run ends
     /// lower (58.7 in the eleventh, 12.8 mm off), 3.1 in one where it does not, and above 5.4 in
     /// the 188 others. The ratio of the whole energies separates them as well on exact masks,
@@ -163,6 +167,23 @@ pub struct FitOptions {
     /// ≥ 0; 0: only [`FitOptions::crossed_legs_within`] decides. Default
     /// [`FitOptions::CROSSED_LEGS_EXCESS`].
     pub crossed_legs_excess: f64,
+    /// The fourth run from the crossed legs (their starting poses without the coarsest stage,
+    /// [`CrossedRunStart::AboutCrossedWithoutCoarsest`](super::CrossedRunStart)) runs after the
+    /// other runs from them and is kept only where its energy ends at most this many times the
+    /// lowest of the other ends (the first run's, the refined crossed pose's, the second and
+    /// third runs'), in [0, 1]; 0: no fourth run. Default [`FitOptions::FOURTH_RUN_BELOW`].
+    ///
+    /// Without the coarsest blur, which settles the body as a whole, a run can end a little
+    /// lower than the others with the legs' order still wrong: where the silhouettes leave it
+    /// nearly ambiguous (legs close together in a stride, seen from mirror-image views) a
+    /// slightly lower energy does not single out the truth. Where the coarsest blur undid the
+    /// crossing in every other run, the fourth ends far lower. Over the 219 fits of about
+    /// 2,600 where the runs from the crossed legs run, kept wherever it ended lowest it ended
+    /// 0.09–0.33 times the others in the five fits it took from 10–79 mm to 4–19 mm (the
+    /// built-in figure's seeds 116, 166, 242, 1006 and eroded 50), but also 0.75–0.91 times in
+    /// the three it made worse by 10–33 mm (CesiumMan's walk at t = 0.375 s, 27.0 → 59.5 mm; the
+    /// built-in figure's 837 and 864); see `docs/pose-fit-evaluation.md`.
+    pub fourth_run_below: f64,
 }
 
 impl Default for FitOptions {
@@ -196,6 +217,7 @@ impl Default for FitOptions {
             crossed_legs_within: FitOptions::CROSSED_LEGS_WITHIN,
             crossed_legs_loose_within: FitOptions::CROSSED_LEGS_LOOSE_WITHIN,
             crossed_legs_excess: FitOptions::CROSSED_LEGS_EXCESS,
+            fourth_run_below: FitOptions::FOURTH_RUN_BELOW,
         }
     }
 }
@@ -235,6 +257,10 @@ impl FitOptions {
     /// Default largest excess per changed pixel with the looser bound
     /// ([`FitOptions::crossed_legs_excess`]), set on the built-in figure's seeds 31–380.
     pub const CROSSED_LEGS_EXCESS: f64 = 0.1;
+
+    /// Default bound of the fourth run from the crossed legs ([`FitOptions::fourth_run_below`]):
+    /// kept where it ends at most half the lowest of the other ends.
+    pub const FOURTH_RUN_BELOW: f64 = 0.5;
 
     /// The schedule and the starting poses [`fit`] uses for `model`.
     ///
@@ -312,8 +338,8 @@ pub struct Fitted {
     /// The limb swap test after the first run's descent ([`FitOptions::swap_steps`]); `None`
     /// when it did not run.
     pub swap: Option<SwapReport>,
-    /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the second
-    /// and third runs from them, and where the fit ends; `None` when the crossed pose was not
+    /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the runs from
+    /// them, and where the fit ends; `None` when the crossed pose was not
     /// looked at (switched off, a skeleton without a pair of legs, a cancelled first run).
     pub crossed_legs: Option<CrossedLegsReport>,
 }
@@ -326,8 +352,9 @@ pub struct Fitted {
 /// user interface sets), which then ends at its current pose with
 /// [`Stop::Cancelled`](super::Stop::Cancelled). When the legs crossed over match the targets
 /// nearly as well as the first run's result ([`FitOptions::crossed_legs_within`]), they are
-/// refined a few steps ([`FitOptions::swap_steps`]) and two more runs start from them (with
-/// starting poses about them, and from them alone); the lowest end is kept. Those runs' steps
+/// refined a few steps ([`FitOptions::swap_steps`]) and three more runs start from them (with
+/// starting poses about them, from them alone, and with the starting poses about them without
+/// the coarsest stage); the lowest end is kept. Those runs' steps
 /// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
 /// lowest of the others.
 ///
@@ -411,6 +438,12 @@ pub fn fit(
                 "the crossed legs' {what} must be finite and ≥ 0, got {bound}"
             )));
         }
+    }
+    if !(0.0..=1.0).contains(&options.fourth_run_below) {
+        return Err(Error::InvalidSettings(format!(
+            "the fourth run's bound must be in [0, 1], got {}",
+            options.fourth_run_below
+        )));
     }
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;

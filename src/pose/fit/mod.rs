@@ -144,10 +144,12 @@
 //!     so that noise in the masks elsewhere does not decide), or at most 15 times worse with a
 //!     squared error at most 0.1 higher per changed pixel
 //!     ([`FitOptions::crossed_legs_loose_within`], [`FitOptions::crossed_legs_excess`]), the
-//!     fit refines it a few steps as the swap test refines a candidate, runs the whole method
-//!     again from it twice (from starting poses about it, as the first run, and from it alone:
-//!     the starting poses now and then lead back to the legs the first run ended with) and
-//!     keeps whichever ends with the lowest energy ([`CrossedLegsEnd`]). On the built-in
+//!     fit refines it a few steps as the swap test refines a candidate, runs the method again
+//!     from it three times ([`CrossedRunStart`]: from starting poses about it, as the first
+//!     run; from it alone, since the starting poses now and then lead back to the legs the
+//!     first run ended with; and from the starting poses without the coarsest stage, whose
+//!     blur now and then undoes the crossing from any start) and keeps whichever ends with the
+//!     lowest energy ([`CrossedLegsEnd`]). On the built-in
 //!     figure's seeds 31–230 the second run ran in 10 of the 200 fits and took the failures
 //!     (more than 2% of the height off) from 8 to 1, and on seeds 231–330, which played no part
 //!     in choosing the first bound, from 9 to 1 (11 second runs);
@@ -156,7 +158,9 @@
 //!     failures of seeds 1–20; the MakeHuman body's fits seldom meet either bound. The
 //!     refinement ended lowest in one fit of about a thousand (the built-in figure's seed 433,
 //!     64.9 → 8.4 mm, where the second run ends higher than the first); the third run then
-//!     took the built-in figure's failures over seeds 31–1060 from 10 to 6 (see
+//!     took the built-in figure's failures over seeds 31–1060 from 10 to 6, and the fourth,
+//!     kept only where it ends at most half as high as the others
+//!     ([`FitOptions::fourth_run_below`]), from 6 to 5 (seed 116, 78.6 → 4.2 mm; see
 //!     `docs/pose-fit-evaluation.md`).
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
@@ -176,7 +180,7 @@ mod poses;
 mod schedule;
 
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
-pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport};
+pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
 pub use descent::{
     crossed_legs, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate, SwapReport,
     SwapScreen,
