@@ -22,10 +22,12 @@ pub enum CrossedRunStart {
     /// one, the second run is this run already).
     CrossedAlone,
     /// The fourth run: the second run's starting poses with the coarsest stage left out (its
-    /// starting poses tried under the next stage's blur), where the schedule has more than one
-    /// stage and [`FitOptions::fourth_run_below`] is not 0. The coarsest blur now and then
-    /// undoes the crossing from every start, the crossed pose's alone included. Kept only where
-    /// it ends at most [`FitOptions::fourth_run_below`] times the lowest of the other ends.
+    /// starting poses tried under the next stage's blur). The coarsest blur now and then undoes
+    /// the crossing from every start, the crossed pose's alone included, and then the second and
+    /// third runs end above the first: the fourth runs only there (neither ended below the first
+    /// run's end or the refined crossed pose), where the schedule has more than one stage and
+    /// [`FitOptions::fourth_run_below`] is not 0, and is kept only where it ends at most
+    /// [`FitOptions::fourth_run_below`] times the lowest of the other ends.
     AboutCrossedWithoutCoarsest,
 }
 
@@ -176,6 +178,11 @@ pub(super) fn runs_from_crossed_legs(
     }
     let mut offset = first_steps;
     for (start, schedule, starts) in plan {
+        if start == CrossedRunStart::AboutCrossedWithoutCoarsest && matches!(outcome.end, CrossedLegsEnd::Run(_)) {
+            // A run from the crossed legs already ended below the first run: the crossing held
+            // through the coarsest blur there, which is what the fourth run is for.
+            break;
+        }
         if options.fit_outline {
             fit.set_outline_rate(outline_rate)?;
         }

@@ -126,8 +126,9 @@ pub struct FitOptions {
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
     /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs three more
     /// times from it (the stages and the swap test: a second run from starting poses about it,
-    /// as the first run, a third from it alone, and a fourth from the starting poses about it
-    /// without the coarsest stage; [`CrossedRunStart`](super::CrossedRunStart)) and keeps
+    /// as the first run, a third from it alone, and, where neither of those ends below the
+    /// first, a fourth from the starting poses about it without the coarsest stage;
+    /// [`CrossedRunStart`](super::CrossedRunStart)) and keeps
     /// whichever ends with the lowest energy
     /// ([`PoseFit::energy`]; [`CrossedLegsReport::end`]); 0: never (neither rule). Only with
     /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
@@ -169,20 +170,26 @@ pub struct FitOptions {
     pub crossed_legs_excess: f64,
     /// The fourth run from the crossed legs (their starting poses without the coarsest stage,
     /// [`CrossedRunStart::AboutCrossedWithoutCoarsest`](super::CrossedRunStart)) runs after the
-    /// other runs from them and is kept only where its energy ends at most this many times the
-    /// lowest of the other ends (the first run's, the refined crossed pose's, the second and
-    /// third runs'), in [0, 1]; 0: no fourth run. Default [`FitOptions::FOURTH_RUN_BELOW`].
+    /// other runs from them where neither the second nor the third ended below the first run's
+    /// end (or the refined crossed pose), and is kept only where its energy ends at most this
+    /// many times the lowest of those ends, in [0, 1]; 0: no fourth run. Default
+    /// [`FitOptions::FOURTH_RUN_BELOW`].
     ///
     /// Without the coarsest blur, which settles the body as a whole, a run can end a little
     /// lower than the others with the legs' order still wrong: where the silhouettes leave it
     /// nearly ambiguous (legs close together in a stride, seen from mirror-image views) a
     /// slightly lower energy does not single out the truth. Where the coarsest blur undid the
-    /// crossing in every other run, the fourth ends far lower. Over the 219 fits of about
-    /// 2,600 where the runs from the crossed legs run, kept wherever it ended lowest it ended
-    /// 0.09–0.33 times the others in the five fits it took from 10–79 mm to 4–19 mm (the
-    /// built-in figure's seeds 116, 166, 242, 1006 and eroded 50), but also 0.75–0.91 times in
-    /// the three it made worse by 10–33 mm (CesiumMan's walk at t = 0.375 s, 27.0 → 59.5 mm; the
-    /// built-in figure's 837 and 864); see `docs/pose-fit-evaluation.md`.
+    /// crossing in every other run, the fourth ends far lower. Over the 219 fits of about 2,600
+    /// where the runs from the crossed legs run, run in all of them and kept wherever it ended
+    /// lowest, it ended 0.09–0.33 times the others in the five fits it took from 10–79 mm to
+    /// 4–19 mm (the built-in figure's seeds 116, 166, 242, 1006 and eroded 50), but also
+    /// 0.75–0.91 times in the three it made worse by 10–33 mm (CesiumMan's walk at t = 0.375 s,
+    /// 27.0 → 59.5 mm; the built-in figure's 837 and 864); see `docs/pose-fit-evaluation.md`.
+    ///
+    /// Where the second or the third run ends lower, the crossing held through the coarsest
+    /// blur there; skipping the fourth run there keeps its cost to about a third of the fits
+    /// where the runs run (66 of 216 on the sets measured) and gives up two fits it made closer
+    /// (the built-in figure's 1006, 18.1 → 4.8 mm; RiggedFigure's 45, 2.9 → 1.6 mm).
     pub fourth_run_below: f64,
 }
 
@@ -352,9 +359,10 @@ pub struct Fitted {
 /// user interface sets), which then ends at its current pose with
 /// [`Stop::Cancelled`](super::Stop::Cancelled). When the legs crossed over match the targets
 /// nearly as well as the first run's result ([`FitOptions::crossed_legs_within`]), they are
-/// refined a few steps ([`FitOptions::swap_steps`]) and three more runs start from them (with
-/// starting poses about them, from them alone, and with the starting poses about them without
-/// the coarsest stage); the lowest end is kept. Those runs' steps
+/// refined a few steps ([`FitOptions::swap_steps`]) and up to three more runs start from them
+/// (with starting poses about them, from them alone, and, where neither of those ends below the
+/// first run, with the starting poses about them without the coarsest stage); the lowest end is
+/// kept. Those runs' steps
 /// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
 /// lowest of the others.
 ///
