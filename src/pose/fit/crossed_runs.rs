@@ -179,8 +179,9 @@ pub(super) fn runs_from_crossed_legs(
     let mut offset = first_steps;
     for (start, schedule, starts) in plan {
         if start == CrossedRunStart::AboutCrossedWithoutCoarsest && matches!(outcome.end, CrossedLegsEnd::Run(_)) {
-            // A run from the crossed legs already ended below the first run: the crossing held
-            // through the coarsest blur there, which is what the fourth run is for.
+            // A run from the crossed legs already ended below the first run (and the refined
+            // pose): the crossing held through the coarsest blur there, so the fourth run, for
+            // where it did not, is left out.
             break;
         }
         if options.fit_outline {
