@@ -359,7 +359,7 @@ struct Outcome {
     stop: Stop,
     /// The swap the swap test kept, if any.
     swap: Option<LimbSwap>,
-    /// Whether a second run from the legs crossed over ran (`FitOptions::crossed_legs_within`),
+    /// Whether the runs from the legs crossed over ran (`FitOptions::crossed_legs_within`),
     /// and where the fit ends; `None` when the crossed pose was not looked at.
     crossed: Option<(bool, CrossedLegsEnd)>,
 }
@@ -433,7 +433,7 @@ fn fit_seed(
         );
     }
     let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
-    let second_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
+    let crossed_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
     if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
         println!(
             "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
@@ -470,7 +470,7 @@ fn fit_seed(
         }
     }
     let backend = fit.renderer().backend_name();
-    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps + second_steps, stop: run.stop, swap, crossed })
+    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps + crossed_steps, stop: run.stop, swap, crossed })
 }
 
 /// Runs the command line; a failure is reported on stderr with exit status 1.
