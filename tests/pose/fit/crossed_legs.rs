@@ -36,12 +36,19 @@ struct CrossedStart {
     truth_vertices: Vec<Vec3>,
 }
 
-/// [`CrossedStart`] for `random_pose`'s `seed`.
-fn crossed_start(seed: u64) -> CrossedStart {
+/// The built-in figure, the example's random pose for `seed` and 4 raised views of it at
+/// `resolution`².
+fn figure_scene(seed: u64, resolution: u32) -> (SkinnedMesh, Pose, Vec<Camera>, Vec<Image>) {
     let model = builtin_figure();
     let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), seed);
+    let (cameras, targets) = views(&model, &truth, resolution);
+    (model, truth, cameras, targets)
+}
+
+/// [`CrossedStart`] for `random_pose`'s `seed`.
+fn crossed_start(seed: u64) -> CrossedStart {
+    let (model, truth, cameras, targets) = figure_scene(seed, 32);
     let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
-    let (cameras, targets) = views(&model, &truth, 32);
     let truth_vertices = model.skin(&truth).unwrap();
     CrossedStart { model, truth, wrong, cameras, targets, truth_vertices }
 }
@@ -148,9 +155,7 @@ fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
 
 #[test]
 fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
-    let (cameras, targets) = views(&model, &truth, 24);
+    let (model, _, cameras, targets) = figure_scene(5, 24);
     let base = FitOptions { steps: 30, swap_steps: 2, ..FitOptions::default() };
     // A bound no energy exceeds: the second run always runs.
     let options = FitOptions { crossed_legs_within: 1e300, ..base.clone() };
@@ -263,9 +268,7 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
 
 #[test]
 fn a_looser_ratio_runs_the_second_run_when_the_excess_per_changed_pixel_is_small() {
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
-    let (cameras, targets) = views(&model, &truth, 24);
+    let (model, _, cameras, targets) = figure_scene(5, 24);
     // A strict bound no ratio meets: only the looser rule can run the second run.
     let strict = FitOptions { steps: 30, swap_steps: 0, crossed_legs_within: 1e-9, ..FitOptions::default() };
     let run = |options: &FitOptions| {
@@ -386,9 +389,7 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
     // default method from the rest pose): the legs end in each other's places (78.6 mm), and
     // the coarsest blur undoes the crossing in the second and third runs, which end above the
     // first; the fourth, without that stage, ends at 0.29 times the first (4.2 mm).
-    let model = builtin_figure();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 116);
-    let (cameras, targets) = views(&model, &truth, 64);
+    let (model, truth, cameras, targets) = figure_scene(116, 64);
     let truth_vertices = model.skin(&truth).unwrap();
     let run = |options: &FitOptions| {
         let mut blurs = Vec::new();
