@@ -124,10 +124,10 @@ pub struct FitOptions {
     /// each rendered with the fit's outline, the candidate's over the fit's;
     /// [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
-    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs three more
-    /// times from it (the stages and the swap test: a second run from starting poses about it,
-    /// as the first run, a third from it alone, and, where neither of those ends below the
-    /// first, a fourth from the starting poses about it without the coarsest stage;
+    /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs up to three more
+    /// times from it (the stages and the swap test: a second run from starting poses about it, as
+    /// the first run, a third from it alone, and, where neither of those ends below the first, a
+    /// fourth from the starting poses about it without the coarsest stage;
     /// [`CrossedRunStart`](super::CrossedRunStart)) and keeps
     /// whichever ends with the lowest energy
     /// ([`PoseFit::energy`]; [`CrossedLegsReport::end`]); 0: never (neither rule). Only with

@@ -144,12 +144,12 @@
 //!     so that noise in the masks elsewhere does not decide), or at most 15 times worse with a
 //!     squared error at most 0.1 higher per changed pixel
 //!     ([`FitOptions::crossed_legs_loose_within`], [`FitOptions::crossed_legs_excess`]), the
-//!     fit refines it a few steps as the swap test refines a candidate, runs the method again
-//!     from it three times ([`CrossedRunStart`]: from starting poses about it, as the first
-//!     run; from it alone, since the starting poses now and then lead back to the legs the
-//!     first run ended with; and, where neither of those ended below the first run, from the
-//!     starting poses without the coarsest stage, whose blur now and then undoes the crossing
-//!     from any start) and keeps whichever ends with the lowest energy ([`CrossedLegsEnd`]). On the built-in
+//!     fit refines it a few steps as the swap test refines a candidate, runs the method again from
+//!     it up to three times ([`CrossedRunStart`]: from starting poses about it, as the first run;
+//!     from it alone, since the starting poses now and then lead back to the legs the first run
+//!     ended with; and, where neither of those ended below the first run, from the starting poses
+//!     without the coarsest stage, whose blur now and then undoes the crossing from any start) and
+//!     keeps whichever ends with the lowest energy ([`CrossedLegsEnd`]). On the built-in
 //!     figure's seeds 31–230 the second run ran in 10 of the 200 fits and took the failures
 //!     (more than 2% of the height off) from 8 to 1, and on seeds 231–330, which played no part
 //!     in choosing the first bound, from 9 to 1 (11 second runs);

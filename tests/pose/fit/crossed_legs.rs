@@ -1,9 +1,9 @@
 //! The legs crossed over in `fit::fit` (`crossed_legs`, `FitOptions::crossed_legs_within`): the
 //! candidate turns each leg bone to point at the other leg's joint and changes nothing else; the
-//! fit refines it a few steps and runs three more times from it when it is close (from starting
-//! poses about it, from it alone, and from the starting poses without the coarsest stage), keeps
-//! whichever of the five ends lowest (the fourth run only where the second and third end above
-//! the first, and kept only well below the others) and ends at that energy; a fit whose legs
+//! fit refines it a few steps and runs up to three more times from it when it is close (from
+//! starting poses about it, from it alone, and from the starting poses without the coarsest stage),
+//! keeps whichever of the five ends lowest (the fourth run only where the second and third end
+//! above the first, and kept only well below the others) and ends at that energy; a fit whose legs
 //! hold each other's places ends with them in their own, by the runs or by the refinement alone;
 //! the runs can be switched off and cancelled, and a bad bound is an error.
 
@@ -424,7 +424,7 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
     }
     assert!(blurs[fourth_start..].iter().all(|&b| b < coarsest), "{blurs:?}");
     assert_eq!(blurs.len(), fourth_start + r4.steps as usize);
-    // A bound below its ratio: not kept, the fit ends where the first run did, legs crossed.
+    // A bound below its ratio: not kept, the fit ends at the lowest of the others, legs crossed.
     let strict = FitOptions { fourth_run_below: 0.2, ..FitOptions::default() };
     let (crossed, energy, error, ..) = run(&strict);
     assert_eq!(crossed.runs.len(), 3, "{crossed:?}");
