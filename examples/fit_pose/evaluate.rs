@@ -163,3 +163,17 @@ pub fn motion_frames(o: &Options, clip: &str) -> Result<Vec<(f32, Pose)>, Box<dy
     }
     Ok(frames)
 }
+
+/// `A-B` (inclusive, A ≤ B) or a single seed.
+pub fn seed_range(value: &str) -> Result<(u64, u64), String> {
+    let parse = |s: &str| s.trim().parse::<u64>().map_err(|e| format!("{e}"));
+    let (a, b) = match value.split_once('-') {
+        Some((a, b)) => (parse(a)?, parse(b)?),
+        None => (parse(value)?, parse(value)?),
+    };
+    if a <= b {
+        Ok((a, b))
+    } else {
+        Err("use A-B with A ≤ B".into())
+    }
+}

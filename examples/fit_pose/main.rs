@@ -49,7 +49,7 @@ use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
 #[path = "../common/mod.rs"]
 mod common;
 use common::{finite, BackendName};
-use evaluate::{ablation, evaluate, motion_frames};
+use evaluate::{ablation, evaluate, motion_frames, seed_range};
 use masks::MaskNoise;
 pub use user_fit::fit_user_data;
 use user_fit::save_fit;
@@ -163,6 +163,11 @@ pub struct Options {
     /// FitOptions::FOURTH_RUN_BELOW, 0.5]
     #[arg(long, value_name = "X", value_parser = finite)]
     fourth_run_below: Option<f32>,
+    /// Head turns (±30°, ±60° about the neck) in the swap test, each kept only where it ends at
+    /// most X times the pose's energy (0.85 for a big, boxy head like CesiumMan's); 0: none
+    /// [default: FitOptions::head_turn_below, 0]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    head_turns: Option<f32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -268,20 +273,6 @@ pub struct Options {
     truth: Option<Pose>,
 }
 
-/// `A-B` (inclusive, A ≤ B) or a single seed.
-fn seed_range(value: &str) -> Result<(u64, u64), String> {
-    let parse = |s: &str| s.trim().parse::<u64>().map_err(|e| format!("{e}"));
-    let (a, b) = match value.split_once('-') {
-        Some((a, b)) => (parse(a)?, parse(b)?),
-        None => (parse(value)?, parse(value)?),
-    };
-    if a <= b {
-        Ok((a, b))
-    } else {
-        Err("use A-B with A ≤ B".into())
-    }
-}
-
 pub fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
     match &o.model {
         None if o.figure => Ok((builtin_figure(), "builtin-figure".into())),
@@ -343,6 +334,7 @@ fn fit_options(o: &Options) -> FitOptions {
         crossed_legs_loose_within: o.crossed_legs_loose.map_or(defaults.crossed_legs_loose_within, f64::from),
         crossed_legs_excess: o.crossed_legs_excess.map_or(defaults.crossed_legs_excess, f64::from),
         fourth_run_below: o.fourth_run_below.map_or(defaults.fourth_run_below, f64::from),
+        head_turn_below: o.head_turns.map_or(defaults.head_turn_below, f64::from),
         ..defaults
     }
 }

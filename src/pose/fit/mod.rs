@@ -116,7 +116,11 @@
 //!    and the lowest alone with the ratio ends the evaluation of `docs/pose-fit-evaluation.md`
 //!    (352 fits) as the three did (both before the forearm turns; with them, 149 of 150 fits
 //!    of the built-in figure end as with every candidate refined). Two lowest alone, tried
-//!    earlier with the energies taken one by one, lost two swaps and saved nothing.
+//!    earlier with the energies taken one by one, lost two swaps and saved nothing. On request
+//!    ([`FitOptions::head_turn_below`], off by default) four head turns join them
+//!    ([`head_turns`]: the neck's subtree turned ±30° and ±60° about its line), kept only where
+//!    they end well below the pose: they mend most of CesiumMan's failures (a big, boxy head
+//!    left turned) but move a few fits of other models slightly further off.
 //!
 //! 10. **A coarse proxy at the coarsest blur** ([`FitOptions::coarse_proxy`],
 //!     [`PoseFit::set_coarse_proxy`]): the starting poses and the first stage compare
@@ -182,8 +186,8 @@ mod schedule;
 pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
 pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
 pub use descent::{
-    crossed_legs, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate, SwapReport,
-    SwapScreen,
+    crossed_legs, head_turns, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate,
+    SwapReport, SwapScreen,
 };
 pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};

@@ -47,6 +47,11 @@ pub enum LimbSwap {
     /// quarter turns (1, 2 or 3): an elbow bent the wrong way round, which the views can leave
     /// unseen where the forearm hides behind the torso in some of them.
     Twist(usize, u8),
+    /// The head and neck turned about the neck's line by this many twelfths of a turn (−2, −1,
+    /// 1 or 2: ±30° or ±60°; positive counterclockwise seen from the head's end): a head left
+    /// turned the wrong way, whose outline changes slowly under the turn. Only tried when asked
+    /// ([`head_turns`]; [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)).
+    HeadTurn(i8),
 }
 
 /// One candidate of [`PoseFit::swap_limbs`] and its energies.
@@ -114,24 +119,30 @@ pub struct SwapReport {
 }
 
 impl PoseFit {
-    /// The swap test on the current pose: the [`limb_swaps`] candidates are screened by their
-    /// energy as they are ([`PoseFit::energy`], the pose and every candidate in one render
+    /// The swap test on the current pose: the [`limb_swaps`] candidates (and, where
+    /// `head_turn_below` > 0, the [`head_turns`] after them) are screened by their energy as they are ([`PoseFit::energy`], the pose and every candidate in one render
     /// batch; see [`SwapScreen`]), those that pass and the pose itself take `steps` unblurred
     /// steps (in lock-step, one render batch per step, each with the current Adam moments and
     /// nuisances), and the fit moves to the one with the lowest energy; a candidate is kept only
-    /// when its energy is strictly below the pose's own after the same steps. Each state's steps
+    /// when its energy is strictly below the pose's own after the same steps, a head turn only
+    /// when it is also at most `head_turn_below` times the pose's (in [0, 1]; 0: no head turns,
+    /// see [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)). Each state's steps
     /// are the same bits whichever others run beside it, so screening changes the outcome only
     /// where the best candidate is screened out. Leaves the blur at 0. With `steps` = 0 every
     /// candidate is compared as it is. A skeleton without a pair of legs or arms has no
     /// candidates: the pose then takes the steps alone. Errors on a negative or NaN
-    /// `screen.within`.
-    pub fn swap_limbs(&mut self, steps: u32, screen: SwapScreen) -> Result<SwapReport> {
+    /// `screen.within` and on a `head_turn_below` outside [0, 1].
+    pub fn swap_limbs(&mut self, steps: u32, screen: SwapScreen, head_turn_below: f64) -> Result<SwapReport> {
         if screen.within.is_nan() || screen.within < 0.0 {
             return Err(Error::InvalidSettings(format!("the swap screen's ratio must be ≥ 0, got {}", screen.within)));
         }
+        check_head_turn_below(head_turn_below)?;
         let base = self.state();
         let pose = self.pose();
-        let swaps = limb_swaps(&self.model, &pose)?;
+        let mut swaps = limb_swaps(&self.model, &pose)?;
+        if head_turn_below > 0.0 {
+            swaps.extend(head_turns(&self.model, &pose)?);
+        }
         let states: Vec<FitState> = swaps.iter().map(|(_, candidate)| self.with_pose(&base, candidate)).collect();
         let mut candidates: Vec<SwapCandidate> =
             swaps.iter().map(|(kind, _)| SwapCandidate { kind: *kind, start_energy: None, energy: None }).collect();
@@ -180,7 +191,8 @@ impl PoseFit {
         }
         let mut best = 0;
         for (k, h) in results.iter().enumerate().skip(1) {
-            if h.energy < results[best].energy {
+            let head = matches!(candidates[chosen[k - 1]].kind, LimbSwap::HeadTurn(_));
+            if h.energy < results[best].energy && (!head || h.energy <= head_turn_below * results[0].energy) {
                 best = k;
             }
         }
@@ -321,6 +333,52 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             (kind, out)
         })
         .collect())
+}
+
+/// The head turns the swap test tries when asked ([`PoseFit::swap_limbs`],
+/// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)): the head is every joint
+/// below the one child of the arms' shared parent that is not an arm (the neck beside the collars
+/// or the shoulders), turned about the line from that joint to the head's joint farthest from it
+/// (the pose's vertical axis where the head is a single joint) by −60°, −30°, 30° and 60°
+/// ([`LimbSwap::HeadTurn`]). The arms are the second mirrored pair of
+/// [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses). None where the skeleton
+/// has no arms, the arms' first joints have different parents, or that parent has no other
+/// child or more than one. Only the head's joint rotations change.
+pub fn head_turns(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pose)>> {
+    pose.validate(model.joint_count())?;
+    let parents = &model.skeleton.parents;
+    let Some(&(a, b)) = mirrored_pairs(model).get(1) else { return Ok(Vec::new()) };
+    let (Some(parent), true) = (parents[a], parents[a] == parents[b]) else { return Ok(Vec::new()) };
+    let others: Vec<usize> = (0..parents.len()).filter(|&k| parents[k] == Some(parent) && k != a && k != b).collect();
+    let [neck] = others[..] else { return Ok(Vec::new()) };
+    let (rest_rot, moved, posed) = world_rotations(model, pose)?;
+    let at = |j: usize| posed[j].w_axis.truncate();
+    let head = subtree(parents, neck);
+    let far =
+        head.iter().map(|&k| at(k) - at(neck)).fold(Vec3::ZERO, |m, d| if d.length() > m.length() { d } else { m });
+    let up = Quat::from_scaled_axis(pose.orientation) * Vec3::Y;
+    let Some(axis) = far.try_normalize().or_else(|| up.try_normalize()) else { return Ok(Vec::new()) };
+    Ok([-2i8, -1, 1, 2]
+        .into_iter()
+        .map(|twelfths| {
+            let turn = Mat3::from_axis_angle(axis, f32::from(twelfths) * std::f32::consts::PI / 6.0);
+            let (t, _) = turned(&moved, &head, turn);
+            let mut out = pose.clone();
+            for &k in &head {
+                out.joint_rotations[k] = joint_rotation(parents, &rest_rot, &t, k);
+            }
+            (LimbSwap::HeadTurn(twelfths), out)
+        })
+        .collect())
+}
+
+/// Errors unless `below` (a head turn's bound, [`PoseFit::swap_limbs`]) lies in [0, 1].
+pub(in crate::pose::fit) fn check_head_turn_below(below: f64) -> Result<()> {
+    if (0.0..=1.0).contains(&below) {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!("the head turns' bound must be in [0, 1], got {below}")))
+    }
 }
 
 /// A candidate's world rotations relative to rest, one per joint, and which of them changed.

@@ -3,6 +3,7 @@
 
 mod call;
 mod crossed_legs;
+mod head_turns;
 mod hypotheses;
 mod inflation;
 mod interval;

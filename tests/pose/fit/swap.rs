@@ -12,8 +12,9 @@ use diffsil::pose::fit::{
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mat3, RenderSettings, Renderer, Vec3};
 
-/// The built-in figure with the legs in a stride and the arms swung (one forward, one back).
-fn striding() -> (SkinnedMesh, Pose) {
+/// The built-in figure with the legs in a stride and the arms swung (one forward, one back)
+/// (also used by `head_turns.rs`).
+pub(super) fn striding() -> (SkinnedMesh, Pose) {
     let model = builtin_figure();
     let poses = limb_swing_hypotheses(&model, 0.5, 0.6).unwrap();
     // Rest, then (legs +, arms −), (legs +, arms +), ...: the second one.
@@ -49,7 +50,8 @@ pub(super) fn views(model: &SkinnedMesh, truth: &Pose, resolution: u32) -> (Vec<
     (cameras, targets)
 }
 
-fn fit_from(model: &SkinnedMesh, start: &Pose, cameras: Vec<Camera>, targets: Vec<Image>) -> PoseFit {
+/// A fit of `targets` from `start` with the default pose prior (also used by `head_turns.rs`).
+pub(super) fn fit_from(model: &SkinnedMesh, start: &Pose, cameras: Vec<Camera>, targets: Vec<Image>) -> PoseFit {
     let renderer = Renderer::new(RenderSettings::default()).unwrap();
     let settings = FitSettings { initial: Some(start.clone()), ..FitSettings::default() };
     let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, settings).unwrap();
@@ -142,7 +144,7 @@ fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
         // A fresh Adam's first steps move every parameter by the learning rate (a fit's own
         // Adam has settled by the end of its descent): small steps here.
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps, SwapScreen::ALL).unwrap();
+        let report = fit.swap_limbs(steps, SwapScreen::ALL, 0.0).unwrap();
         assert_eq!(report.kept, Some(LimbSwap::Mirror(arm)), "{report:?}");
         let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
         assert!(error < 0.2 * start_error, "{steps} steps: {start_error} m → {error} m");
@@ -161,7 +163,7 @@ fn screening_refines_the_lowest_candidates_to_the_same_bits_as_the_full_test() {
     let run = |screen: SwapScreen| {
         let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(3, screen).unwrap();
+        let report = fit.swap_limbs(3, screen, 0.0).unwrap();
         (report, fit.pose())
     };
     let (full, full_pose) = run(SwapScreen::ALL);
@@ -206,8 +208,8 @@ fn screening_refines_the_lowest_candidates_to_the_same_bits_as_the_full_test() {
     }
     assert!(half.candidates.iter().any(|c| c.energy.is_none()), "{half:?}");
     let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
-    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: f64::NAN }).is_err());
-    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: -1.0 }).is_err());
+    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: f64::NAN }, 0.0).is_err());
+    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: -1.0 }, 0.0).is_err());
 }
 
 #[test]
@@ -217,7 +219,7 @@ fn a_swap_that_raises_the_energy_is_not_kept() {
     for steps in [0, 3] {
         let mut fit = fit_from(&model, &truth, cameras.clone(), targets.clone());
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps, SwapScreen::ALL).unwrap();
+        let report = fit.swap_limbs(steps, SwapScreen::ALL, 0.0).unwrap();
         assert_eq!(report.kept, None, "{report:?}");
         // Six, and three turns of each forearm (the arms are straight: their turns hardly move
         // the hands, but they still end above the truth).
@@ -262,7 +264,7 @@ fn named(model: &SkinnedMesh, pose: &Pose, joint: fn(LimbSwap) -> Option<usize>)
 }
 
 /// `root` and every joint below it, in joint order.
-fn subtree(model: &SkinnedMesh, root: usize) -> Vec<usize> {
+pub(super) fn subtree(model: &SkinnedMesh, root: usize) -> Vec<usize> {
     (0..model.joint_count())
         .filter(|&j| {
             let mut k = Some(j);
@@ -350,7 +352,7 @@ fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
     let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
     let mut fit = fit_from(&model, &start, cameras, targets);
     fit.set_learning_rate(0.002).unwrap();
-    let report = fit.swap_limbs(4, SwapScreen::ALL).unwrap();
+    let report = fit.swap_limbs(4, SwapScreen::ALL, 0.0).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Swing(arm, true)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
@@ -421,7 +423,7 @@ fn a_fit_with_a_forearm_bent_the_wrong_way_turns_it_back() {
     let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
     let mut fit = fit_from(&model, &start, cameras, targets);
     fit.set_learning_rate(0.002).unwrap();
-    let report = fit.swap_limbs(4, SwapScreen::default()).unwrap();
+    let report = fit.swap_limbs(4, SwapScreen::default(), 0.0).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Twist(elbow, 2)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
