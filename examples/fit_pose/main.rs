@@ -85,7 +85,8 @@ blurred ones end with |a| below X; --warmup K ramps the learning rate up over th
 unblurred steps; both off by default). Then the swap test: each leg and arm mirrored front to
 back, each forearm turned about its upper arm, both legs mirrored and the legs exchanged; the
 lowest in energy as it is, and any within 3 times the pose's energy, refined 10 steps beside
-the pose and kept where the energy ends lower (--swap-steps, --swap-refined, --swap-within).
+the pose and kept where the energy ends lower (--swap-steps, --swap-refined, --swap-within;
+--head-turns adds turns of the head, off by default).
 Same method and settings at every resolution and F."
 )]
 pub struct Options {
@@ -418,7 +419,8 @@ fn fit_seed(
             .map(|c| format!("{:?} {} → {}", c.kind, energy(c.start_energy), energy(c.energy)))
             .collect();
         println!(
-            "swap test: pose {:.3e}, kept {:?} (candidates: {})",
+            "swap test: pose {} → {:.3e}, kept {:?} (candidates: {})",
+            energy(report.start_energy),
             report.energy,
             report.kept,
             candidates.join(", ")
