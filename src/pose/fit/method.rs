@@ -202,9 +202,9 @@ pub struct FitOptions {
     /// slowly under the turn. With 0.85, CesiumMan's random poses (the example's seeds 1–300)
     /// fail 5 times instead of 12 (held out, seeds 101–300: 3 instead of 7). But the turns move
     /// other fits too: over 360 fits of the MakeHuman body, the built-in figure (exact, dilated,
-    /// eroded and flipped masks) and RiggedFigure, 16 ended 0.1–4.1 mm further from the truth
-    /// and none closer or across the 2% line, where a turned head that matched the masks a
-    /// little better lay further off; so it is off by default (the measurements are in
+    /// eroded and flipped masks) and RiggedFigure, it changed 19, 16 of them 0.1–4.1 mm further
+    /// from the truth (a turned head that matched the masks a little better lay further off)
+    /// and none across the 2% line; so it is off by default (the measurements are in
     /// `docs/pose-fit-evaluation.md`).
     pub head_turn_below: f64,
 }

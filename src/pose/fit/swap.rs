@@ -50,7 +50,8 @@ pub enum LimbSwap {
     /// The head and neck turned about the neck's line by this many twelfths of a turn (−2, −1,
     /// 1 or 2: ±30° or ±60°; positive counterclockwise seen from the head's end): a head left
     /// turned the wrong way, whose outline changes slowly under the turn. Only tried when asked
-    /// ([`head_turns`]; [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)).
+    /// ([`head_turns`];
+    /// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)).
     HeadTurn(i8),
 }
 
@@ -120,17 +121,18 @@ pub struct SwapReport {
 
 impl PoseFit {
     /// The swap test on the current pose: the [`limb_swaps`] candidates (and, where
-    /// `head_turn_below` > 0, the [`head_turns`] after them) are screened by their energy as they are ([`PoseFit::energy`], the pose and every candidate in one render
-    /// batch; see [`SwapScreen`]), those that pass and the pose itself take `steps` unblurred
-    /// steps (in lock-step, one render batch per step, each with the current Adam moments and
-    /// nuisances), and the fit moves to the one with the lowest energy; a candidate is kept only
-    /// when its energy is strictly below the pose's own after the same steps, a head turn only
-    /// when it is also at most `head_turn_below` times the pose's (in [0, 1]; 0: no head turns,
-    /// see [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)). Each state's steps
-    /// are the same bits whichever others run beside it, so screening changes the outcome only
-    /// where the best candidate is screened out. Leaves the blur at 0. With `steps` = 0 every
-    /// candidate is compared as it is. A skeleton without a pair of legs or arms has no
-    /// candidates: the pose then takes the steps alone. Errors on a negative or NaN
+    /// `head_turn_below` > 0, the [`head_turns`] after them) are screened by their energy as
+    /// they are ([`PoseFit::energy`], the pose and every candidate in one render batch; see
+    /// [`SwapScreen`]), those that pass and the pose itself take `steps` unblurred steps (in
+    /// lock-step, one render batch per step, each with the current Adam moments and nuisances),
+    /// and the fit moves to the one with the lowest energy; a candidate is kept only when its
+    /// energy is strictly below the pose's own after the same steps, a head turn only when it
+    /// is also at most `head_turn_below` times the pose's (in [0, 1]; 0: no head turns, see
+    /// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)). Each
+    /// state's steps are the same bits whichever others run beside it, so screening changes the
+    /// outcome only where the best candidate is screened out. Leaves the blur at 0. With
+    /// `steps` = 0 every candidate is compared as it is. A skeleton without a pair of legs or
+    /// arms has no candidates: the pose then takes the steps alone. Errors on a negative or NaN
     /// `screen.within` and on a `head_turn_below` outside [0, 1].
     pub fn swap_limbs(&mut self, steps: u32, screen: SwapScreen, head_turn_below: f64) -> Result<SwapReport> {
         if screen.within.is_nan() || screen.within < 0.0 {
@@ -336,11 +338,11 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
 }
 
 /// The head turns the swap test tries when asked ([`PoseFit::swap_limbs`],
-/// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)): the head is every joint
-/// below the one child of the arms' shared parent that is not an arm (the neck beside the collars
-/// or the shoulders), turned about the line from that joint to the head's joint farthest from it
-/// (the pose's vertical axis where the head is a single joint) by −60°, −30°, 30° and 60°
-/// ([`LimbSwap::HeadTurn`]). The arms are the second mirrored pair of
+/// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)): the head
+/// is every joint below the one child of the arms' shared parent that is not an arm (the neck
+/// beside the collars or the shoulders), turned about the line from that joint to the head's
+/// joint farthest from it (the pose's vertical axis where the head is a single joint) by −60°,
+/// −30°, 30° and 60° ([`LimbSwap::HeadTurn`]). The arms are the second mirrored pair of
 /// [`limb_swing_hypotheses`](crate::pose::fit::limb_swing_hypotheses). None where the skeleton
 /// has no arms, the arms' first joints have different parents, or that parent has no other
 /// child or more than one. Only the head's joint rotations change.
