@@ -324,17 +324,17 @@ pub fn limb_swaps(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
         }
         swaps.push((LimbSwap::ExchangeLegs, (t, changed)));
     }
-    Ok(swaps
-        .into_iter()
-        .map(|(kind, (t, changed))| {
-            // Limbs change whole subtrees, whose roots' parents keep their rotations.
-            let mut out = pose.clone();
-            for k in (0..n).filter(|&k| changed[k]) {
-                out.joint_rotations[k] = joint_rotation(parents, &rest_rot, &t, k);
-            }
-            (kind, out)
-        })
-        .collect())
+    Ok(swaps.into_iter().map(|(kind, changed)| (kind, candidate_pose(pose, parents, &rest_rot, changed))).collect())
+}
+
+/// `pose` with the joint rotations of a candidate's changed joints set from its world rotations
+/// relative to rest. Candidates change whole subtrees, whose roots' parents keep their rotations.
+fn candidate_pose(pose: &Pose, parents: &[Option<usize>], rest_rot: &[Mat3], (t, changed): ChangedRotations) -> Pose {
+    let mut out = pose.clone();
+    for k in (0..t.len()).filter(|&k| changed[k]) {
+        out.joint_rotations[k] = joint_rotation(parents, rest_rot, &t, k);
+    }
+    out
 }
 
 /// The head turns the swap test tries when asked ([`PoseFit::swap_limbs`],
@@ -364,12 +364,7 @@ pub fn head_turns(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
         .into_iter()
         .map(|twelfths| {
             let turn = Mat3::from_axis_angle(axis, f32::from(twelfths) * std::f32::consts::PI / 6.0);
-            let (t, _) = turned(&moved, &head, turn);
-            let mut out = pose.clone();
-            for &k in &head {
-                out.joint_rotations[k] = joint_rotation(parents, &rest_rot, &t, k);
-            }
-            (LimbSwap::HeadTurn(twelfths), out)
+            (LimbSwap::HeadTurn(twelfths), candidate_pose(pose, parents, &rest_rot, turned(&moved, &head, turn)))
         })
         .collect())
 }
