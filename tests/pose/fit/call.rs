@@ -20,11 +20,14 @@ fn views_of(truth: &Pose, resolution: u32) -> (SkinnedMesh, Vec<Camera>, Vec<Ima
     (model, cameras, targets)
 }
 
-fn renderer() -> Renderer {
+/// A renderer with the default settings (also used by `crossed_legs.rs` and
+/// `head_turns.rs`).
+pub(super) fn renderer() -> Renderer {
     Renderer::new(RenderSettings::default()).unwrap()
 }
 
-fn go_on(_: &diffsil::pose::fit::PoseFit, _: &diffsil::pose::fit::Progress) -> ControlFlow<()> {
+/// A progress callback that never cancels (also used by `crossed_legs.rs` and `head_turns.rs`).
+pub(super) fn go_on(_: &diffsil::pose::fit::PoseFit, _: &diffsil::pose::fit::Progress) -> ControlFlow<()> {
     ControlFlow::Continue(())
 }
 

@@ -12,11 +12,12 @@ use std::ops::ControlFlow;
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
     crossed_legs, fit, per_vertex_error, random_pose, CrossedLegsEnd, CrossedLegsReport, CrossedRunStart, FitOptions,
-    Progress, Stop,
+    Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Camera, Error, Image, Mat3, RenderSettings, Renderer, Vec3};
+use diffsil::{Camera, Error, Image, Mat3, Vec3};
 
+use super::call::{go_on, renderer};
 use super::swap::views;
 
 /// The built-in figure's joint named `name`.
@@ -51,14 +52,6 @@ fn crossed_start(seed: u64) -> CrossedStart {
     let wrong = crossed_legs(&model, &truth).unwrap().unwrap();
     let truth_vertices = model.skin(&truth).unwrap();
     CrossedStart { model, truth, wrong, cameras, targets, truth_vertices }
-}
-
-fn renderer() -> Renderer {
-    Renderer::new(RenderSettings::default()).unwrap()
-}
-
-fn go_on(_: &diffsil::pose::fit::PoseFit, _: &Progress) -> ControlFlow<()> {
-    ControlFlow::Continue(())
 }
 
 #[test]

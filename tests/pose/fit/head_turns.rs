@@ -4,12 +4,11 @@
 //! under their bound; a bound outside [0, 1] is an error; CesiumMan's head, left turned by the
 //! descent, is turned back.
 
-use std::ops::ControlFlow;
-
 use diffsil::pose::fit::{fit, head_turns, per_vertex_error, FitOptions, LimbSwap, SwapScreen};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Error, Mat3, RenderSettings, Renderer};
+use diffsil::{Error, Mat3};
 
+use super::call::{go_on, renderer};
 use super::swap::{fit_from, striding, subtree, views};
 
 /// The built-in figure's neck joint (the head's first joint): the one child of the collars'
@@ -72,20 +71,20 @@ fn head_turns_are_tried_only_when_asked_and_kept_only_under_their_bound() {
     // The truth with the head turned 60°: turning it back by 60° gives the truth again.
     let wrong = turned(&model, &truth, 2);
     let run = |below: f64| {
-        let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
-        let report = fit.swap_limbs(0, SwapScreen::ALL, below).unwrap();
-        (report, fit)
+        let mut swap_test = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+        let report = swap_test.swap_limbs(0, SwapScreen::ALL, below).unwrap();
+        (report, swap_test)
     };
     let (without, _) = run(0.0);
     assert!(without.candidates.iter().all(|c| !matches!(c.kind, LimbSwap::HeadTurn(_))), "{without:?}");
     assert!(!matches!(without.kept, Some(LimbSwap::HeadTurn(_))), "{without:?}");
-    let (with, fit) = run(1.0);
+    let (with, turned_back) = run(1.0);
     let heads: Vec<LimbSwap> =
         with.candidates.iter().map(|c| c.kind).filter(|k| matches!(k, LimbSwap::HeadTurn(_))).collect();
     assert_eq!(heads, (-2..=2).filter(|&t| t != 0).map(LimbSwap::HeadTurn).collect::<Vec<_>>());
     assert_eq!(&with.candidates[..without.candidates.len()], &without.candidates[..], "the others as without");
     assert_eq!(with.kept, Some(LimbSwap::HeadTurn(-2)), "{with:?}");
-    let error = per_vertex_error(&fit.vertices().unwrap(), &model.skin(&truth).unwrap());
+    let error = per_vertex_error(&turned_back.vertices().unwrap(), &model.skin(&truth).unwrap());
     assert!(error < 1e-4, "back at the truth: {error} m");
     // Kept only at or below its bound: the energy it ends with over the pose's.
     let back = with.candidates.iter().find(|c| c.kind == LimbSwap::HeadTurn(-2)).unwrap().energy.unwrap();
@@ -95,25 +94,13 @@ fn head_turns_are_tried_only_when_asked_and_kept_only_under_their_bound() {
     let (above, _) = run(0.99 * ratio);
     assert!(!matches!(above.kept, Some(LimbSwap::HeadTurn(_))), "{above:?}");
     // A bound outside [0, 1] is an error, in the swap test and in the library call.
-    let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+    let mut swap_test = fit_from(&model, &wrong, cameras.clone(), targets.clone());
     for bad in [f64::NAN, -0.1, 1.5, f64::INFINITY] {
-        assert!(matches!(fit.swap_limbs(0, SwapScreen::ALL, bad), Err(Error::InvalidSettings(_))), "{bad}");
+        assert!(matches!(swap_test.swap_limbs(0, SwapScreen::ALL, bad), Err(Error::InvalidSettings(_))), "{bad}");
         let options = FitOptions { steps: 4, head_turn_below: bad, ..FitOptions::default() };
-        let renderer = Renderer::new(RenderSettings::default()).unwrap();
-        let result = fit_call(&model, &cameras, &targets, renderer, &options);
+        let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on);
         assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
     }
-}
-
-/// `fit::fit` on clones of the inputs, never cancelled.
-fn fit_call(
-    model: &SkinnedMesh,
-    cameras: &[diffsil::Camera],
-    targets: &[diffsil::Image],
-    renderer: Renderer,
-    options: &FitOptions,
-) -> diffsil::Result<diffsil::pose::fit::Fitted> {
-    fit(model.clone(), cameras.to_vec(), targets.to_vec(), renderer, options, |_, _| ControlFlow::Continue(()))
 }
 
 #[test]
@@ -134,8 +121,7 @@ fn a_fit_of_cesium_man_with_the_head_turned_the_wrong_way_turns_it_back() {
     let truth_vertices = model.skin(&truth).unwrap();
     let options = FitOptions { head_turn_below: 0.85, ..FitOptions::default() };
     for (options, turned_back) in [(FitOptions::default(), false), (options, true)] {
-        let renderer = Renderer::new(RenderSettings::default()).unwrap();
-        let fitted = fit_call(&model, &cameras, &targets, renderer, &options).unwrap();
+        let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
         let swap = fitted.swap.expect("the swap test ran");
         assert_eq!(matches!(swap.kept, Some(LimbSwap::HeadTurn(_))), turned_back, "{swap:?}");
         let error = per_vertex_error(&fitted.fit.vertices().unwrap(), &truth_vertices);
