@@ -34,8 +34,7 @@ pub use state::FitState;
 // The limb swap test on a final pose, in its own file.
 #[path = "swap.rs"]
 mod swap;
-pub(super) use swap::check_head_turn_below;
-pub use swap::{head_turns, limb_swaps, LimbSwap, SwapCandidate, SwapReport, SwapScreen};
+pub use swap::{head_turns, limb_swaps, LimbSwap, SwapCandidate, SwapReport, SwapScreen, SwapTest};
 // The legs crossed over, the candidate of `fit`'s second run, in its own file (it shares the
 // swap test's joint-rotation helpers).
 #[path = "crossed_legs.rs"]

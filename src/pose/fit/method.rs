@@ -3,9 +3,8 @@
 use std::ops::ControlFlow;
 
 use super::crossed_runs::runs_from_crossed_legs;
-use super::descent::check_head_turn_below;
 use super::{limb_swing_hypotheses, Convergence, CrossedLegsReport, Free, PoseFit, Progress, RunReport, Schedule};
-use super::{FitSettings, Stage, Stop, SwapReport, SwapScreen};
+use super::{FitSettings, Stage, Stop, SwapReport, SwapScreen, SwapTest};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Renderer, Result};
 
@@ -286,6 +285,12 @@ impl FitOptions {
     /// kept where it ends at most half the lowest of the other ends.
     pub const FOURTH_RUN_BELOW: f64 = 0.5;
 
+    /// The swap test [`fit`] runs after each run ([`PoseFit::swap_limbs`]): `swap_steps`,
+    /// `swap_screen` and `head_turn_below`.
+    pub fn swap_test(&self) -> SwapTest {
+        SwapTest { steps: self.swap_steps, screen: self.swap_screen, head_turn_below: self.head_turn_below }
+    }
+
     /// The schedule and the starting poses [`fit`] uses for `model`.
     ///
     /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
@@ -470,7 +475,7 @@ pub fn fit(
             options.fourth_run_below
         )));
     }
-    check_head_turn_below(options.head_turn_below)?;
+    options.swap_test().validate()?;
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;
     let (report, swap) = run_and_swap(&mut fit, options, &schedule, &hypotheses, &mut on_step)?;
@@ -493,7 +498,7 @@ pub(super) fn run_and_swap(
 ) -> Result<(RunReport, Option<SwapReport>)> {
     let report = fit.run(schedule, starts, &mut *on_step)?;
     let swap = if options.swap_steps > 0 && options.fit_pose && report.stop != Stop::Cancelled {
-        Some(fit.swap_limbs(options.swap_steps, options.swap_screen, options.head_turn_below)?)
+        Some(fit.swap_limbs(&options.swap_test())?)
     } else {
         None
     };

@@ -187,7 +187,7 @@ pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION
 pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
 pub use descent::{
     crossed_legs, head_turns, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate,
-    SwapReport, SwapScreen,
+    SwapReport, SwapScreen, SwapTest,
 };
 pub use inflation::vertex_normals;
 pub use method::{fit, FitOptions, Fitted};

@@ -105,6 +105,47 @@ impl Default for SwapScreen {
     }
 }
 
+/// How [`PoseFit::swap_limbs`] runs; `SwapTest::default()` is the test [`fit`](crate::pose::fit::fit)
+/// runs with `FitOptions::default()` ([`FitOptions::swap_test`](crate::pose::fit::FitOptions::swap_test)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SwapTest {
+    /// Unblurred steps each refined candidate and the pose itself take; 0 compares every
+    /// candidate as it is. Default [`FitOptions::SWAP_STEPS`](crate::pose::fit::FitOptions::SWAP_STEPS).
+    pub steps: u32,
+    /// Which candidates take the steps. Default [`SwapScreen::default`].
+    pub screen: SwapScreen,
+    /// Head turns ([`head_turns`]) join the candidates where this is above 0, each kept only
+    /// where its energy ends at most this multiple of the pose's; in [0, 1]. Default 0 (see
+    /// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)).
+    pub head_turn_below: f64,
+}
+
+impl Default for SwapTest {
+    fn default() -> Self {
+        SwapTest {
+            steps: crate::pose::fit::FitOptions::SWAP_STEPS,
+            screen: SwapScreen::default(),
+            head_turn_below: 0.0,
+        }
+    }
+}
+
+impl SwapTest {
+    /// Errors ([`Error::InvalidSettings`]) on a negative or NaN `screen.within` and on a
+    /// `head_turn_below` outside [0, 1] (NaN included).
+    pub fn validate(&self) -> Result<()> {
+        let within = self.screen.within;
+        if within.is_nan() || within < 0.0 {
+            return Err(Error::InvalidSettings(format!("the swap screen's ratio must be ≥ 0, got {within}")));
+        }
+        let below = self.head_turn_below;
+        if !(0.0..=1.0).contains(&below) {
+            return Err(Error::InvalidSettings(format!("the head turns' bound must be in [0, 1], got {below}")));
+        }
+        Ok(())
+    }
+}
+
 /// What [`PoseFit::swap_limbs`] did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SwapReport {
@@ -121,24 +162,21 @@ pub struct SwapReport {
 
 impl PoseFit {
     /// The swap test on the current pose: the [`limb_swaps`] candidates (and, where
-    /// `head_turn_below` > 0, the [`head_turns`] after them) are screened by their energy as
-    /// they are ([`PoseFit::energy`], the pose and every candidate in one render batch; see
-    /// [`SwapScreen`]), those that pass and the pose itself take `steps` unblurred steps (in
-    /// lock-step, one render batch per step, each with the current Adam moments and nuisances),
-    /// and the fit moves to the one with the lowest energy; a candidate is kept only when its
-    /// energy is strictly below the pose's own after the same steps, a head turn only when it
-    /// is also at most `head_turn_below` times the pose's (in [0, 1]; 0: no head turns, see
-    /// [`FitOptions::head_turn_below`](crate::pose::fit::FitOptions::head_turn_below)). Each
-    /// state's steps are the same bits whichever others run beside it, so screening changes the
-    /// outcome only where the best candidate is screened out. Leaves the blur at 0. With
-    /// `steps` = 0 every candidate is compared as it is. A skeleton without a pair of legs or
-    /// arms has no candidates: the pose then takes the steps alone. Errors on a negative or NaN
-    /// `screen.within` and on a `head_turn_below` outside [0, 1].
-    pub fn swap_limbs(&mut self, steps: u32, screen: SwapScreen, head_turn_below: f64) -> Result<SwapReport> {
-        if screen.within.is_nan() || screen.within < 0.0 {
-            return Err(Error::InvalidSettings(format!("the swap screen's ratio must be ≥ 0, got {}", screen.within)));
-        }
-        check_head_turn_below(head_turn_below)?;
+    /// [`SwapTest::head_turn_below`] > 0, the [`head_turns`] after them) are screened by their
+    /// energy as they are ([`PoseFit::energy`], the pose and every candidate in one render batch;
+    /// see [`SwapScreen`]), those that pass and the pose itself take [`SwapTest::steps`]
+    /// unblurred steps (in lock-step, one render batch per step, each with the current Adam
+    /// moments and nuisances), and the fit moves to the one with the lowest energy; a candidate
+    /// is kept only when its energy is strictly below the pose's own after the same steps, a
+    /// head turn only when it is also at most `head_turn_below` times the pose's. Each state's
+    /// steps are the same bits whichever others run beside it, so screening changes the outcome
+    /// only where the best candidate is screened out. Leaves the blur at 0. With 0 steps every
+    /// candidate is compared as it is. A skeleton without a pair of legs or arms has no
+    /// candidates: the pose then takes the steps alone. Errors where `test` is invalid
+    /// ([`SwapTest::validate`]).
+    pub fn swap_limbs(&mut self, test: &SwapTest) -> Result<SwapReport> {
+        test.validate()?;
+        let SwapTest { steps, screen, head_turn_below } = *test;
         let base = self.state();
         let pose = self.pose();
         let mut swaps = limb_swaps(&self.model, &pose)?;
@@ -367,15 +405,6 @@ pub fn head_turns(model: &SkinnedMesh, pose: &Pose) -> Result<Vec<(LimbSwap, Pos
             (LimbSwap::HeadTurn(twelfths), candidate_pose(pose, parents, &rest_rot, turned(&moved, &head, turn)))
         })
         .collect())
-}
-
-/// Errors unless `below` (a head turn's bound, [`PoseFit::swap_limbs`]) lies in [0, 1].
-pub(in crate::pose::fit) fn check_head_turn_below(below: f64) -> Result<()> {
-    if (0.0..=1.0).contains(&below) {
-        Ok(())
-    } else {
-        Err(Error::InvalidSettings(format!("the head turns' bound must be in [0, 1], got {below}")))
-    }
 }
 
 /// A candidate's world rotations relative to rest, one per joint, and which of them changed.

@@ -4,7 +4,7 @@
 //! under their bound; a bound outside [0, 1] is an error; CesiumMan's head, left turned by the
 //! descent, is turned back.
 
-use diffsil::pose::fit::{fit, head_turns, per_vertex_error, FitOptions, LimbSwap, SwapScreen};
+use diffsil::pose::fit::{fit, head_turns, per_vertex_error, FitOptions, LimbSwap, SwapScreen, SwapTest};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Error, Mat3};
 
@@ -72,7 +72,8 @@ fn head_turns_are_tried_only_when_asked_and_kept_only_under_their_bound() {
     let wrong = turned(&model, &truth, 2);
     let run = |below: f64| {
         let mut swap_test = fit_from(&model, &wrong, cameras.clone(), targets.clone());
-        let report = swap_test.swap_limbs(0, SwapScreen::ALL, below).unwrap();
+        let report =
+            swap_test.swap_limbs(&SwapTest { steps: 0, screen: SwapScreen::ALL, head_turn_below: below }).unwrap();
         (report, swap_test)
     };
     let (without, _) = run(0.0);
@@ -96,7 +97,13 @@ fn head_turns_are_tried_only_when_asked_and_kept_only_under_their_bound() {
     // A bound outside [0, 1] is an error, in the swap test and in the library call.
     let mut swap_test = fit_from(&model, &wrong, cameras.clone(), targets.clone());
     for bad in [f64::NAN, -0.1, 1.5, f64::INFINITY] {
-        assert!(matches!(swap_test.swap_limbs(0, SwapScreen::ALL, bad), Err(Error::InvalidSettings(_))), "{bad}");
+        assert!(
+            matches!(
+                swap_test.swap_limbs(&SwapTest { steps: 0, screen: SwapScreen::ALL, head_turn_below: bad }),
+                Err(Error::InvalidSettings(_))
+            ),
+            "{bad}"
+        );
         let options = FitOptions { steps: 4, head_turn_below: bad, ..FitOptions::default() };
         let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on);
         assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");

@@ -7,7 +7,7 @@
 use diffsil::pose::figure::builtin_figure;
 use diffsil::pose::fit::{
     fit, framing_ring, limb_swaps, limb_swing_hypotheses, per_vertex_error, FitOptions, FitSettings, LimbSwap, PoseFit,
-    SwapScreen, RAISED_ELEVATION_DEG,
+    SwapScreen, SwapTest, RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mat3, RenderSettings, Renderer, Vec3};
@@ -144,7 +144,7 @@ fn a_fit_with_a_limb_on_the_wrong_side_ends_on_the_right_side() {
         // A fresh Adam's first steps move every parameter by the learning rate (a fit's own
         // Adam has settled by the end of its descent): small steps here.
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps, SwapScreen::ALL, 0.0).unwrap();
+        let report = fit.swap_limbs(&SwapTest { steps, screen: SwapScreen::ALL, ..SwapTest::default() }).unwrap();
         assert_eq!(report.kept, Some(LimbSwap::Mirror(arm)), "{report:?}");
         let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
         assert!(error < 0.2 * start_error, "{steps} steps: {start_error} m → {error} m");
@@ -163,7 +163,7 @@ fn screening_refines_the_lowest_candidates_to_the_same_bits_as_the_full_test() {
     let run = |screen: SwapScreen| {
         let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(3, screen, 0.0).unwrap();
+        let report = fit.swap_limbs(&SwapTest { steps: 3, screen, ..SwapTest::default() }).unwrap();
         (report, fit.pose())
     };
     let (full, full_pose) = run(SwapScreen::ALL);
@@ -207,9 +207,27 @@ fn screening_refines_the_lowest_candidates_to_the_same_bits_as_the_full_test() {
         assert_eq!(c.energy.is_some(), start(c) <= within * pose_start, "{half:?}");
     }
     assert!(half.candidates.iter().any(|c| c.energy.is_none()), "{half:?}");
-    let mut fit = fit_from(&model, &wrong, cameras.clone(), targets.clone());
-    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: f64::NAN }, 0.0).is_err());
-    assert!(fit.swap_limbs(3, SwapScreen { lowest: 2, within: -1.0 }, 0.0).is_err());
+    let mut swap_test = fit_from(&model, &wrong, cameras.clone(), targets.clone());
+    for within in [f64::NAN, -1.0] {
+        let screen = SwapScreen { lowest: 2, within };
+        assert!(swap_test.swap_limbs(&SwapTest { steps: 3, screen, ..SwapTest::default() }).is_err(), "{within}");
+    }
+    // The library call checks the screen before it takes a step.
+    for within in [f64::NAN, -1.0] {
+        let options = FitOptions { swap_screen: SwapScreen { lowest: 2, within }, ..FitOptions::default() };
+        let result = fit(model.clone(), cameras.clone(), targets.clone(), super::call::renderer(), &options, |_, _| {
+            panic!("a step before the swap screen was checked")
+        });
+        assert!(matches!(result, Err(diffsil::Error::InvalidSettings(_))), "{within}: {result:?}");
+    }
+}
+
+#[test]
+fn the_default_swap_test_is_the_one_the_default_fit_runs() {
+    assert_eq!(FitOptions::default().swap_test(), SwapTest::default());
+    let options =
+        FitOptions { swap_steps: 3, head_turn_below: 0.5, swap_screen: SwapScreen::ALL, ..FitOptions::default() };
+    assert_eq!(options.swap_test(), SwapTest { steps: 3, screen: SwapScreen::ALL, head_turn_below: 0.5 });
 }
 
 #[test]
@@ -219,7 +237,7 @@ fn a_swap_that_raises_the_energy_is_not_kept() {
     for steps in [0, 3] {
         let mut fit = fit_from(&model, &truth, cameras.clone(), targets.clone());
         fit.set_learning_rate(0.002).unwrap();
-        let report = fit.swap_limbs(steps, SwapScreen::ALL, 0.0).unwrap();
+        let report = fit.swap_limbs(&SwapTest { steps, screen: SwapScreen::ALL, ..SwapTest::default() }).unwrap();
         assert_eq!(report.kept, None, "{report:?}");
         // Six, and three turns of each forearm (the arms are straight: their turns hardly move
         // the hands, but they still end above the truth).
@@ -352,7 +370,7 @@ fn a_fit_with_an_arm_left_in_the_body_plane_swings_it_forward() {
     let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
     let mut fit = fit_from(&model, &start, cameras, targets);
     fit.set_learning_rate(0.002).unwrap();
-    let report = fit.swap_limbs(4, SwapScreen::ALL, 0.0).unwrap();
+    let report = fit.swap_limbs(&SwapTest { steps: 4, screen: SwapScreen::ALL, ..SwapTest::default() }).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Swing(arm, true)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
@@ -423,7 +441,7 @@ fn a_fit_with_a_forearm_bent_the_wrong_way_turns_it_back() {
     let start_error = per_vertex_error(&model.skin(&start).unwrap(), &truth_vertices);
     let mut fit = fit_from(&model, &start, cameras, targets);
     fit.set_learning_rate(0.002).unwrap();
-    let report = fit.swap_limbs(4, SwapScreen::default(), 0.0).unwrap();
+    let report = fit.swap_limbs(&SwapTest { steps: 4, screen: SwapScreen::default(), ..SwapTest::default() }).unwrap();
     assert_eq!(report.kept, Some(LimbSwap::Twist(elbow, 2)), "{report:?}");
     let error = per_vertex_error(&fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.2 * start_error, "{start_error} m → {error} m");
