@@ -27,6 +27,7 @@
 
 mod evaluate;
 mod masks;
+mod rig;
 mod sheet;
 mod user_data;
 mod user_fit;
@@ -39,8 +40,8 @@ use clap::Parser;
 use diffsil::io::gltf::{load_gltf, Model};
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_ring, per_vertex_error, random_pose, Convergence, CrossedLegsEnd, FitOptions, Fitted, LimbSwap,
-    PoseFit, Progress, Schedule, Stop, SwapScreen, RAISED_ELEVATION_DEG,
+    fit, per_vertex_error, random_pose, Convergence, CrossedLegsEnd, FitOptions, Fitted, LimbSwap, PoseFit, Progress,
+    Schedule, Stop, SwapScreen,
 };
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
@@ -51,17 +52,9 @@ mod common;
 use common::{finite, BackendName};
 use evaluate::{ablation, evaluate, motion_frames, seed_range};
 use masks::MaskNoise;
+use rig::Layout;
 pub use user_fit::fit_user_data;
 use user_fit::save_fit;
-
-/// The ring the cameras sit on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum Layout {
-    /// At the height of the model's centre: opposite views are mirror images.
-    Level,
-    /// 15° above it, looking down (`RAISED_ELEVATION_DEG`).
-    Raised,
-}
 
 /// Command-line options (`fit_pose --help`).
 #[derive(Clone, Debug, Parser)]
@@ -97,11 +90,12 @@ pub struct Options {
     /// Fit the built-in procedural figure (3,864 vertices, 24 joints) instead of the MakeHuman body
     #[arg(long, conflicts_with = "model")]
     figure: bool,
-    /// The ring of cameras around the model (raised: seeds 31–80 of the built-in figure end
-    /// with no fit above 2% of the height, level: one at 57 mm)
+    /// Where the cameras sit around the model (raised: seeds 31–80 of the built-in figure end
+    /// with no fit above 2% of the height, level: one at 57 mm; irregular: drawn from the seed,
+    /// one rig for all the frames of `--motion`)
     #[arg(long, value_name = "LAYOUT", value_enum, default_value_t = Layout::Raised)]
     views: Layout,
-    /// Number of cameras on the ring, azimuths evenly spaced, at least 1
+    /// Number of cameras, azimuths evenly spaced (moved at random with irregular), at least 1
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     view_count: u32,
     /// Image side in pixels
@@ -223,7 +217,8 @@ pub struct Options {
     /// Plain descent: rest pose only, no blur, no prior, no early stop (the paper's method)
     #[arg(long)]
     plain: bool,
-    /// Seed of the ground-truth pose
+    /// Seed of the ground-truth pose (and of `--views irregular`'s rig; with `--motion`, of the
+    /// rig alone)
     #[arg(long, value_name = "N", default_value_t = 1)]
     seed: u64,
     /// Evaluate over a range of seeds, e.g. 31-80: per-seed errors, median, p90, worst,
@@ -272,6 +267,9 @@ pub struct Options {
     /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
     #[arg(skip)]
     truth: Option<Pose>,
+    /// The seed of `--views irregular`'s rig when not `seed` (`--motion`: one rig for the clip).
+    #[arg(skip)]
+    rig_seed: Option<u64>,
 }
 
 pub fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::error::Error>> {
@@ -378,11 +376,11 @@ fn fit_seed(
     let truth_vertices = model.skin_shaped(&truth, &betas)?;
     // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).
     let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
-    let elevation = match o.views {
-        Layout::Level => 0.0,
-        Layout::Raised => RAISED_ELEVATION_DEG.to_radians(),
-    };
-    let cameras = framing_ring(&rest_mesh, o.view_count, o.resolution, elevation);
+    let rig_seed = o.rig_seed.unwrap_or(o.seed);
+    let cameras = rig::cameras(o.views, &rest_mesh, o.view_count, o.resolution, rig_seed);
+    if !quiet {
+        print!("{}", rig::describe(o.views, &rest_mesh, o.view_count, rig_seed));
+    }
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
     let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
@@ -502,7 +500,10 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
             .into_iter()
             .enumerate()
             .map(|(k, (time, pose))| {
-                (format!("frame {k} (t = {time:.3} s)"), Options { seed: k as u64, truth: Some(pose), ..o.clone() })
+                (
+                    format!("frame {k} (t = {time:.3} s)"),
+                    Options { seed: k as u64, truth: Some(pose), rig_seed: Some(o.seed), ..o.clone() },
+                )
             })
             .collect();
         return evaluate(&model, &name, o, &what, cases);

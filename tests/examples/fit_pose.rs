@@ -259,3 +259,44 @@ fn masks_load_as_coverage_or_thresholded() {
     let ones = hard[0].data().iter().filter(|v| **v == 1.0).count() as f64;
     assert!((energy - ones / f64::from(SIZE.0 * SIZE.1)).abs() < 1e-12);
 }
+
+// The cameras of the example's own targets (`--views`).
+
+#[path = "../../examples/fit_pose/rig.rs"]
+mod rig;
+
+#[test]
+fn the_rings_are_the_librarys_and_an_irregular_rig_is_drawn_from_the_seed_and_frames_the_model() {
+    use diffsil::pose::fit::{framing_orbit, framing_ring, RAISED_ELEVATION_DEG};
+    use rig::{cameras, describe, Layout};
+    let rest = builtin_figure().mesh;
+    assert_eq!(cameras(Layout::Level, &rest, 4, 32, 9), framing_ring(&rest, 4, 32, 0.0));
+    let raised = framing_ring(&rest, 3, 32, RAISED_ELEVATION_DEG.to_radians());
+    assert_eq!(cameras(Layout::Raised, &rest, 3, 32, 9), raised);
+    assert_eq!(describe(Layout::Raised, &rest, 3, 9), "");
+    let rig = cameras(Layout::Irregular, &rest, 5, 32, 9);
+    assert_eq!(rig.len(), 5);
+    assert_eq!(rig, cameras(Layout::Irregular, &rest, 5, 32, 9), "the same seed, the same rig");
+    assert_ne!(rig, cameras(Layout::Irregular, &rest, 5, 32, 10));
+    let lines: Vec<String> = describe(Layout::Irregular, &rest, 5, 9).lines().map(str::to_owned).collect();
+    assert_eq!(lines.len(), 5, "{lines:?}");
+    let ring = framing_orbit(&rest, 0.0);
+    for (k, (camera, line)) in rig.iter().zip(&lines).enumerate() {
+        // Seen from the ring's centre (the rig's aim is at most 5% of the distance off it): each
+        // camera within 25° (and the aim's 3.3°) of its place on the ring, 0°–30° above it, no
+        // nearer than the ring, and every vertex of the model in view.
+        let d = camera.eye - ring.target;
+        let place = std::f32::consts::TAU * k as f32 / 5.0;
+        let offset = ((d.x.atan2(d.z) - place).to_degrees() + 540.0).rem_euclid(360.0) - 180.0;
+        assert!(offset.abs() <= 28.3, "camera {k}: {offset}° off its place on the ring");
+        let elevation = (d.y / d.length()).asin().to_degrees();
+        assert!((-3.3..=33.3).contains(&elevation), "camera {k}: elevation {elevation}°");
+        assert!(d.length() >= 0.95 * ring.distance, "camera {k}: {} against {}", d.length(), ring.distance);
+        let view = camera.params();
+        for &p in rest.positions() {
+            let (screen, valid) = view.project(p);
+            assert!(valid && screen.min_element() > 0.0 && screen.max_element() < 32.0, "camera {k}: {p} at {screen}");
+        }
+        assert!(line.starts_with(&format!("camera {k}: azimuth ")), "{line}");
+    }
+}

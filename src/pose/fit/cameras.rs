@@ -29,8 +29,18 @@ pub fn framing_cameras(mesh: &Mesh, views: u32, resolution: u32) -> Vec<Camera> 
 pub const RAISED_ELEVATION_DEG: f32 = 15.0;
 
 /// [`framing_cameras`] on a ring raised by `elevation` radians (looking down at the centre from
-/// above; strictly between −π/2 and π/2), at the same distance.
+/// above; strictly between −π/2 and π/2), at the same distance: [`orbit_cameras`] about
+/// [`framing_orbit`].
 pub fn framing_ring(mesh: &Mesh, views: u32, resolution: u32, elevation: f32) -> Vec<Camera> {
+    orbit_cameras(framing_orbit(mesh, elevation), views, resolution)
+}
+
+/// The orbit the framing rings use: aimed at `mesh`'s bounding-box centre (the origin for an
+/// empty mesh) at azimuth 0 and `elevation` radians, with a 40° vertical field of view, far
+/// enough that the mesh's bounding sphere about that centre fits it with a 10% margin. A start
+/// for cameras of one's own layout: any azimuth and elevation, and any larger distance, keep the
+/// mesh in view.
+pub fn framing_orbit(mesh: &Mesh, elevation: f32) -> Orbit {
     let p = mesh.positions();
     let (lo, hi) =
         p.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
@@ -38,5 +48,5 @@ pub fn framing_ring(mesh: &Mesh, views: u32, resolution: u32, elevation: f32) ->
     let radius = p.iter().map(|v| (*v - centre).length()).fold(1e-3f32, f32::max);
     let fov_y = 40f32.to_radians();
     let distance = 1.1 * radius / (0.5 * fov_y).sin();
-    orbit_cameras(Orbit { target: centre, azimuth: 0.0, elevation, distance, fov_y }, views, resolution)
+    Orbit { target: centre, azimuth: 0.0, elevation, distance, fov_y }
 }

@@ -183,7 +183,7 @@ mod outline;
 mod poses;
 mod schedule;
 
-pub use cameras::{framing_cameras, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
+pub use cameras::{framing_cameras, framing_orbit, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
 pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
 pub use descent::{
     crossed_legs, head_turns, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate,

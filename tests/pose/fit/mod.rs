@@ -2,6 +2,7 @@
 //! coarse-to-fine multi-start method runs as scheduled, and bad settings are errors.
 
 mod call;
+mod cameras;
 mod crossed_legs;
 mod head_turns;
 mod hypotheses;
