@@ -46,13 +46,13 @@ pub fn evaluate(
         o.mask_noise,
         if o.plain { "plain descent" } else { "fit::fit" }
     );
-    let (mut errors, mut seconds, mut steps, mut second_runs) = (Vec::new(), 0.0, 0u64, 0);
+    let (mut errors, mut seconds, mut steps, mut second_runs, mut restarts) = (Vec::new(), 0.0, 0u64, 0, 0);
     let mut height = 0.0;
     let cpu_before = cpu_seconds();
     for (label, case) in cases {
         let outcome = fit_seed(model, &case, false, true)?;
         println!(
-            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}",
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}{}",
             outcome.error_m * 1000.0,
             outcome.steps,
             outcome.stop,
@@ -71,12 +71,18 @@ pub fn evaluate(
                     ", fourth run (from the legs crossed over, without the coarsest stage): kept"
                 }
                 Some((false, CrossedLegsEnd::FirstRun)) | None => "",
+            },
+            match outcome.restart {
+                Some(true) => ", restart: kept",
+                Some(false) => ", restart: not kept",
+                None => "",
             }
         );
         errors.push(outcome.error_m * 1000.0);
         seconds += outcome.seconds;
         steps += u64::from(outcome.steps);
         second_runs += usize::from(matches!(outcome.crossed, Some((true, _))));
+        restarts += usize::from(outcome.restart.is_some());
         height = outcome.height_m;
     }
     let fits = errors.len() as f64;
@@ -88,7 +94,8 @@ pub fn evaluate(
     let failures = errors.iter().filter(|e| **e > limit_mm).count();
     println!(
         "summary: median={:.1}mm p90={:.1}mm worst={:.1}mm failures={failures}/{} (above {limit_mm:.0} mm = 2% of \
-         {:.2} m) wall_s_per_fit={:.2} cpu_s_per_fit={cpu} steps_per_fit={:.0} second_runs={second_runs}",
+         {:.2} m) wall_s_per_fit={:.2} cpu_s_per_fit={cpu} steps_per_fit={:.0} second_runs={second_runs} \
+         restarts={restarts}",
         median(errors.clone()),
         quantile(&errors, 0.9),
         errors.iter().copied().fold(0.0, f64::max),

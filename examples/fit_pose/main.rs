@@ -27,6 +27,7 @@
 
 mod evaluate;
 mod masks;
+mod report;
 mod rig;
 mod sheet;
 mod user_data;
@@ -163,6 +164,10 @@ pub struct Options {
     /// [default: FitOptions::head_turn_below, 0]
     #[arg(long, value_name = "X", value_parser = finite)]
     head_turns: Option<f32>,
+    /// Arm swing (radians) of the restart where the fit misses a piece of a target at least two
+    /// pixels wide; 0: no restart [default: FitOptions::RESTART_ARM_SWING, 0.4]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    restart_arm_swing: Option<f32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -334,6 +339,7 @@ fn fit_options(o: &Options) -> FitOptions {
         crossed_legs_excess: o.crossed_legs_excess.map_or(defaults.crossed_legs_excess, f64::from),
         fourth_run_below: o.fourth_run_below.map_or(defaults.fourth_run_below, f64::from),
         head_turn_below: o.head_turns.map_or(defaults.head_turn_below, f64::from),
+        restart_arm_swing: o.restart_arm_swing.unwrap_or(defaults.restart_arm_swing),
         ..defaults
     }
 }
@@ -353,6 +359,8 @@ struct Outcome {
     /// Whether the runs from the legs crossed over ran (`FitOptions::crossed_legs_within`),
     /// and where the fit ends; `None` when the crossed pose was not looked at.
     crossed: Option<(bool, CrossedLegsEnd)>,
+    /// Whether the restart ran and, if so, whether the fit ends at it (`FitOptions::restart_arm_swing`).
+    restart: Option<bool>,
 }
 
 /// Fits one seed; writes pictures when `pictures` is set.
@@ -407,38 +415,14 @@ fn fit_seed(
                 progress.report.silhouette, progress.report.self_intersection
             ))
         })?;
-    let (mut fit, run) = (fitted.fit, fitted.report);
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
-    let energy = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3e}"));
-    if let (false, Some(report)) = (quiet, &fitted.swap) {
-        let candidates: Vec<String> = report
-            .candidates
-            .iter()
-            .map(|c| format!("{:?} {} → {}", c.kind, energy(c.start_energy), energy(c.energy)))
-            .collect();
-        println!(
-            "swap test: pose {} → {:.3e}, kept {:?} (candidates: {})",
-            energy(report.start_energy),
-            report.energy,
-            report.kept,
-            candidates.join(", ")
-        );
-    }
     let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
     let crossed_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
-    if let (false, Some(c)) = (quiet, &fitted.crossed_legs) {
-        println!(
-            "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
-             {:.3} more per pixel there), runs from it → {}; the fit ends at {:?}",
-            c.fitted_energy,
-            c.start_energy,
-            energy(c.refined_energy),
-            c.changed_ratio,
-            c.changed_excess,
-            c.runs.iter().map(|r| format!("{:?} {}", r.start, energy(r.energy))).collect::<Vec<_>>().join(", "),
-            c.end
-        );
+    let restart = fitted.restart.as_ref().and_then(|r| r.run.as_ref().map(|run| (r.kept, run.steps())));
+    if !quiet {
+        report::print_fitted(&fitted);
     }
+    let (mut fit, run) = (fitted.fit, fitted.report);
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
@@ -462,7 +446,18 @@ fn fit_seed(
         }
     }
     let backend = fit.renderer().backend_name();
-    Ok(Outcome { error_m, height_m, seconds, backend, steps: run.steps + crossed_steps, stop: run.stop, swap, crossed })
+    let steps = run.steps + crossed_steps + restart.map_or(0, |r| r.1);
+    Ok(Outcome {
+        error_m,
+        height_m,
+        seconds,
+        backend,
+        steps,
+        stop: run.stop,
+        swap,
+        crossed,
+        restart: restart.map(|r| r.0),
+    })
 }
 
 /// Runs the command line; a failure is reported on stderr with exit status 1.

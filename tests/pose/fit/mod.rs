@@ -11,6 +11,7 @@ mod interval;
 mod outline;
 mod prior_scale;
 mod proxy;
+mod restart;
 mod swap;
 mod warmup;
 

@@ -1,0 +1,54 @@
+//! What a single fit of the example prints after it ends: the swap test, the crossed legs and
+//! the restart.
+
+use diffsil::pose::fit::Fitted;
+
+/// An energy, or "-" where there is none.
+fn energy(e: Option<f64>) -> String {
+    e.map_or("-".to_string(), |e| format!("{e:.3e}"))
+}
+
+/// Prints the swap test's candidates, the crossed legs' energies and runs, and the misfit check
+/// and restart of `fitted`, where they ran.
+pub fn print_fitted(fitted: &Fitted) {
+    if let Some(report) = &fitted.swap {
+        let candidates: Vec<String> = report
+            .candidates
+            .iter()
+            .map(|c| format!("{:?} {} → {}", c.kind, energy(c.start_energy), energy(c.energy)))
+            .collect();
+        println!(
+            "swap test: pose {} → {:.3e}, kept {:?} (candidates: {})",
+            energy(report.start_energy),
+            report.energy,
+            report.kept,
+            candidates.join(", ")
+        );
+    }
+    if let Some(c) = &fitted.crossed_legs {
+        println!(
+            "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
+             {:.3} more per pixel there), runs from it → {}; the fit ends at {:?}",
+            c.fitted_energy,
+            c.start_energy,
+            energy(c.refined_energy),
+            c.changed_ratio,
+            c.changed_excess,
+            c.runs.iter().map(|r| format!("{:?} {}", r.start, energy(r.energy))).collect::<Vec<_>>().join(", "),
+            c.end
+        );
+    }
+    if let Some(r) = &fitted.restart {
+        match &r.run {
+            None => println!("misfit blocks {:?}: no restart", r.misfit_blocks),
+            Some(run) => println!(
+                "misfit blocks {:?}: restart with the arms swung, {} steps, energy {:.3e} → {}, {}",
+                r.misfit_blocks,
+                run.steps(),
+                r.first_energy,
+                energy(run.energy),
+                if r.kept { "kept" } else { "not kept" }
+            ),
+        }
+    }
+}

@@ -1,0 +1,146 @@
+//! The restart of `fit::fit` (`FitOptions::restart_arm_swing`): `misfit_blocks` counts the 2×2
+//! blocks a fit misses, the restart runs only where there is one, runs the method again from
+//! the arms swung, and the fit ends at the lower energy.
+
+use std::ops::ControlFlow;
+
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, Stop};
+use diffsil::pose::skin::SkinnedMesh;
+use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
+
+use super::call::{go_on, renderer};
+
+/// A 6×5 image of zeros with `ones` (row, column) set to `value`.
+fn image(ones: &[(usize, usize)], value: f32) -> Image {
+    let mut data = vec![0.0; 30];
+    for &(r, c) in ones {
+        data[r * 6 + c] = value;
+    }
+    Image::from_vec(6, 5, data).unwrap()
+}
+
+#[test]
+fn misfit_blocks_are_two_by_two_pixels_off_by_more_than_half_the_same_way() {
+    let zero = image(&[], 0.0);
+    let count = |render: &Image| misfit_blocks(std::slice::from_ref(render), std::slice::from_ref(&zero)).unwrap()[0];
+    let square = [(1, 1), (1, 2), (2, 1), (2, 2)];
+    assert_eq!(count(&image(&square, 1.0)), 1, "a 2×2 square more covered");
+    assert_eq!(count(&image(&square, -1.0)), 1, "a 2×2 square less covered");
+    assert_eq!(count(&image(&square, 0.51)), 1);
+    assert_eq!(count(&image(&square, 0.5)), 0, "off by exactly half: not counted");
+    let three: Vec<(usize, usize)> = (1..4).flat_map(|r| (1..4).map(move |c| (r, c))).collect();
+    assert_eq!(count(&image(&three, 1.0)), 4, "a 3×3 square holds four blocks");
+    let line: Vec<(usize, usize)> = (0..6).map(|c| (2, c)).collect();
+    assert_eq!(count(&image(&line, 1.0)), 0, "a one-pixel line (an outline offset)");
+    let scattered = [(0, 0), (1, 2), (2, 4), (3, 1), (4, 5)];
+    assert_eq!(count(&image(&scattered, 1.0)), 0, "scattered pixels (flipped ones)");
+    let mut mixed = image(&square, 1.0);
+    mixed.data_mut()[2 * 6 + 2] = -1.0;
+    assert_eq!(count(&mixed), 0, "a block off both ways");
+    // Per view, and only against targets of the same number and size.
+    let views = misfit_blocks(&[image(&square, 1.0), zero.clone()], &[zero.clone(), zero.clone()]).unwrap();
+    assert_eq!(views, vec![1, 0]);
+    assert!(matches!(
+        misfit_blocks(std::slice::from_ref(&zero), &[zero.clone(), zero.clone()]),
+        Err(Error::LengthMismatch { .. })
+    ));
+    let other = Image::from_vec(5, 6, vec![0.0; 30]).unwrap();
+    assert!(matches!(misfit_blocks(&[other], &[zero]), Err(Error::InvalidSettings(_))));
+}
+
+/// The built-in figure in the random pose of seed 3, 4 views at 48².
+fn scene() -> (SkinnedMesh, Vec<Camera>, Vec<Image>) {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 3);
+    let cameras = framing_cameras(&model.mesh, 4, 48);
+    let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
+    let targets = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
+    (model, cameras, targets)
+}
+
+/// Options whose first pass ends far from the targets (too few steps to get there), so that the
+/// restart runs.
+fn short() -> FitOptions {
+    FitOptions { steps: 12, crossed_legs_within: 0.0, ..FitOptions::default() }
+}
+
+/// The energy of `fit` at its pose now.
+fn energy(fit: &mut PoseFit) -> f64 {
+    fit.energy().unwrap()
+}
+
+#[test]
+fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_energy() {
+    let (model, cameras, targets) = scene();
+    let mut last_step = 0;
+    let mut fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &short(), |_, p| {
+        assert_eq!(p.step, last_step + 1, "the restart's steps follow the first pass's");
+        last_step = p.step;
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let restart = fitted.restart.clone().expect("looked at");
+    assert!(restart.misfit_blocks.iter().any(|&b| b > 0), "{restart:?}");
+    let run = restart.run.as_ref().expect("a misfit restarts");
+    assert_eq!(fitted.report.steps + run.steps(), last_step);
+    let end = run.energy.expect("not cancelled");
+    assert_eq!(restart.kept, end < restart.first_energy);
+    assert_eq!(energy(&mut fitted.fit), end.min(restart.first_energy), "at the lower end");
+    // The restart is the method from the arms swung: the same end as a fit asked for that.
+    let swung = FitOptions { arm_swing: FitOptions::RESTART_ARM_SWING, restart_arm_swing: 0.0, ..short() };
+    let mut alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &swung, go_on).unwrap();
+    assert_eq!(energy(&mut alone.fit), end);
+    assert_eq!(alone.report.steps, run.report.steps);
+    // Without it, the first pass is the fit, and the same as with it up to there.
+    let off = FitOptions { restart_arm_swing: 0.0, ..short() };
+    let mut first = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
+    assert!(first.restart.is_none());
+    assert_eq!(energy(&mut first.fit), restart.first_energy);
+}
+
+#[test]
+fn a_fit_that_matches_its_masks_takes_no_restart() {
+    // Started at the truth, nothing is missed: the check runs, the restart does not, and the
+    // fit ends where it would without the restart.
+    let (model, cameras, targets) = scene();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 3);
+    let options = FitOptions { steps: 24, initial: Some(truth), coarse_proxy: 0.0, ..FitOptions::default() };
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
+    let restart = fitted.restart.expect("looked at");
+    assert_eq!(restart.misfit_blocks, vec![0; 4]);
+    assert!(restart.run.is_none() && !restart.kept);
+    let off = FitOptions { restart_arm_swing: 0.0, ..options };
+    let without = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
+    assert_eq!(fitted.fit.pose(), without.fit.pose());
+}
+
+#[test]
+fn a_cancelled_restart_leaves_the_first_pass_and_a_bad_swing_is_an_error_before_any_step() {
+    let (model, cameras, targets) = scene();
+    let mut first_steps = None;
+    let mut fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &short(), |_, p| {
+        // Cancel at the restart.s eighth step or later (the first pass takes `short().steps` at
+        // most).
+        if p.step == 20 {
+            first_steps = Some(p.step);
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert_eq!(first_steps, Some(20));
+    let restart = fitted.restart.clone().expect("looked at");
+    let run = restart.run.as_ref().expect("it ran until cancelled");
+    assert_eq!(run.report.stop, Stop::Cancelled);
+    assert_eq!((run.energy, restart.kept), (None, false));
+    assert_eq!(energy(&mut fitted.fit), restart.first_energy, "back at the first pass's end");
+    for bad in [f32::NAN, -0.1, f32::INFINITY] {
+        let options = FitOptions { restart_arm_swing: bad, ..short() };
+        let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, _| {
+            panic!("a step before the restart's swing was checked")
+        });
+        assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
+    }
+}
