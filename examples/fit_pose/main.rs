@@ -293,7 +293,7 @@ pub fn load_model(o: &Options) -> Result<(SkinnedMesh, String), Box<dyn std::err
 }
 
 /// The fitting method's options for these command-line options.
-fn fit_options(o: &Options) -> FitOptions {
+pub fn fit_options(o: &Options) -> FitOptions {
     let defaults = FitOptions::default();
     if o.plain {
         return FitOptions {
@@ -307,6 +307,7 @@ fn fit_options(o: &Options) -> FitOptions {
             fit_global: !o.no_global,
             swap_steps: 0,
             crossed_legs_within: 0.0,
+            restart_arm_swing: 0.0,
             ..defaults
         };
     }

@@ -300,3 +300,17 @@ fn the_rings_are_the_librarys_and_an_irregular_rig_is_drawn_from_the_seed_and_fr
         assert!(line.starts_with(&format!("camera {k}: azimuth ")), "{line}");
     }
 }
+
+#[test]
+fn plain_is_the_papers_descent_and_the_default_is_the_librarys_method() {
+    use diffsil::pose::fit::FitOptions;
+    let parse = |args: &[&str]| example::fit_options(&example::Options::try_parse_from(args.iter().copied()).unwrap());
+    let plain = parse(&["fit_pose", "--plain"]);
+    assert_eq!(
+        (plain.coarse_blur, plain.pose_prior, plain.swap_steps, plain.crossed_legs_within, plain.restart_arm_swing),
+        (0.0, 0.0, 0, 0.0, 0.0),
+        "no blur, prior, swap test, crossed legs or restart"
+    );
+    assert_eq!(parse(&["fit_pose"]), FitOptions::default());
+    assert_eq!(parse(&["fit_pose", "--restart-arm-swing", "0"]).restart_arm_swing, 0.0);
+}

@@ -13,7 +13,8 @@ use crate::{Error, Image, Result};
 /// pixel's coverage, all four the same way (all more covered in the render, or all less): a
 /// piece of the body at least two pixels wide in the wrong place. A fit that matches its masks
 /// up to a boundary offset of a pixel, or up to scattered flipped pixels, has none: a boundary
-/// offset is one pixel wide and a flipped pixel alone. Errors where the counts or sizes differ.
+/// offset is one pixel wide and a flipped pixel alone. A pixel that is NaN in either image
+/// counts as matching; an empty image has no block. Errors where the counts or sizes differ.
 pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
     if renders.len() != targets.len() {
         return Err(Error::LengthMismatch { what: "misfit renders", expected: targets.len(), got: renders.len() });
@@ -32,6 +33,9 @@ pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
                 )));
             }
             let w = render.width() as usize;
+            if w == 0 {
+                return Ok(0);
+            }
             // -1, 0 or 1: how the pixel differs, where by more than half its coverage.
             let sign: Vec<i8> = render
                 .data()

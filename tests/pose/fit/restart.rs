@@ -38,6 +38,14 @@ fn misfit_blocks_are_two_by_two_pixels_off_by_more_than_half_the_same_way() {
     let mut mixed = image(&square, 1.0);
     mixed.data_mut()[2 * 6 + 2] = -1.0;
     assert_eq!(count(&mixed), 0, "a block off both ways");
+    // NaN matches, and an empty image has no block.
+    let mut nan = image(&square, 1.0);
+    nan.data_mut()[6 + 1] = f32::NAN;
+    assert_eq!(count(&nan), 0);
+    for (w, h) in [(0, 0), (0, 5), (6, 0)] {
+        let empty = Image::from_vec(w, h, Vec::new()).unwrap();
+        assert_eq!(misfit_blocks(std::slice::from_ref(&empty), std::slice::from_ref(&empty)).unwrap(), vec![0]);
+    }
     // Per view, and only against targets of the same number and size.
     let views = misfit_blocks(&[image(&square, 1.0), zero.clone()], &[zero.clone(), zero.clone()]).unwrap();
     assert_eq!(views, vec![1, 0]);
