@@ -175,10 +175,10 @@
 //!     eroded or flipped masks, the 22 with one were 5.7–102 mm off, none closer (an outline a
 //!     pixel off is one pixel wide, a flipped pixel stands alone). Where a view has one, the
 //!     whole method runs again from the initial pose with the arms also swung forward and back
-//!     by 0.4 rad, and the lower end is kept ([`RestartReport`]). It ran in about 3% of the
-//!     body's and the figure's fits and a third of CesiumMan's walk keys; it took the walk's 48
-//!     keys from 3 failures to none and the built-in figure's p90 on every set of 50 in seeds
-//!     31–560 to 9.4 mm or less; on irregular camera rigs the figure's failures from 5 to 1 in
+//!     by 0.4 rad, and the lower end is kept ([`RestartReport`]). It ran in about 2% of the
+//!     body's fits, 5% of the figure's and a third of CesiumMan's walk keys; it took the walk's 48
+//!     keys from 3 failures to none and the built-in figure's p90 on every row of 50 to 100 seeds
+//!     in 31–560 to 9.4 mm or less; on irregular camera rigs the figure's failures from 5 to 1 in
 //!     200; of the 68 fits of about 2,000 where it was kept, 60 ended closer to the truth and one
 //!     turned into a failure (`docs/pose-fit-evaluation.md`).
 //!
