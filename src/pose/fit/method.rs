@@ -521,7 +521,7 @@ pub fn fit(
         || crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled));
     let restart = if options.fit_pose && options.restart_arm_swing > 0.0 && !cancelled {
         let first_steps = report.steps + crossed_legs.as_ref().map_or(0, |c| c.steps());
-        Some(restart_where_misfit(&mut fit, options, first_steps, outline_rate, &mut on_step)?)
+        Some(restart_where_misfit(&mut fit, options, &hypotheses, first_steps, outline_rate, &mut on_step)?)
     } else {
         None
     };

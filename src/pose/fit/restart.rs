@@ -7,6 +7,7 @@ use std::ops::ControlFlow;
 use super::crossed_runs::runs_from_crossed_legs;
 use super::method::run_and_swap;
 use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Stop, SwapReport};
+use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
 
 /// Per view, the 2×2 blocks of pixels where `renders` and `targets` differ by more than half a
@@ -69,7 +70,9 @@ pub struct RestartReport {
     pub misfit_blocks: Vec<u32>,
     /// The energy ([`PoseFit::energy`]) where the first pass ended.
     pub first_energy: f64,
-    /// The restart; `None` where it did not run (no misfit block).
+    /// The restart; `None` where it did not run: no misfit block, or its starting poses would
+    /// be the first run's (a fit without blur has only the initial pose; a first run whose
+    /// arms were swung by as much already).
     pub run: Option<RestartRun>,
     /// Whether the fit ends at the restart's result (its energy strictly below `first_energy`).
     pub kept: bool,
@@ -95,13 +98,15 @@ impl RestartRun {
     }
 }
 
-/// The restart of [`fit`](super::fit) after a first pass of `first_steps` steps (the outline's
-/// rate at the start `outline_rate`): where the fit misses a piece of its targets, the method
-/// again from its starting poses with the arms swung by [`FitOptions::restart_arm_swing`], and
-/// the fit left at the lower end.
+/// The restart of [`fit`](super::fit) after a first pass from `first_starts` of `first_steps`
+/// steps (the outline's rate at the start `outline_rate`): where the fit misses a piece of its
+/// targets, the method again from its starting poses with the arms swung by
+/// [`FitOptions::restart_arm_swing`] (where those differ from `first_starts`), and the fit left
+/// at the lower end.
 pub(super) fn restart_where_misfit(
     fit: &mut PoseFit,
     options: &FitOptions,
+    first_starts: &[Pose],
     first_steps: u32,
     outline_rate: f32,
     on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
@@ -112,9 +117,14 @@ pub(super) fn restart_where_misfit(
     if outcome.misfit_blocks.iter().all(|&b| b == 0) {
         return Ok(outcome);
     }
-    let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
     let swung = FitOptions { arm_swing: options.restart_arm_swing, ..options.clone() };
     let (schedule, starts) = swung.plan(fit.model())?;
+    if starts == first_starts {
+        // Nothing else to try (no blur, so no starting poses; or the first run's arms swung
+        // already): the restart would end where the first pass did.
+        return Ok(outcome);
+    }
+    let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
     if options.fit_outline {
         fit.set_outline_rate(outline_rate)?;
     }

@@ -152,3 +152,25 @@ fn a_cancelled_restart_leaves_the_first_pass_and_a_bad_swing_is_an_error_before_
         assert!(matches!(result, Err(Error::InvalidSettings(_))), "{bad}: {result:?}");
     }
 }
+
+#[test]
+fn no_restart_where_its_starting_poses_would_be_the_first_runs() {
+    // Without blur the method starts from the initial pose alone, and a first run whose arms
+    // were swung by as much already started where the restart would: it would end the same.
+    let (model, cameras, targets) = scene();
+    // (Three steps: too few to come near the targets from any start.)
+    let no_blur = FitOptions { coarse_blur: 0.0, steps: 3, ..short() };
+    let swung = FitOptions { arm_swing: FitOptions::RESTART_ARM_SWING, steps: 3, ..short() };
+    for options in [no_blur, swung] {
+        let mut steps = 0;
+        let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, p| {
+            steps = p.step;
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        let restart = fitted.restart.expect("looked at");
+        assert!(restart.misfit_blocks.iter().any(|&b| b > 0), "a misfit: {restart:?}");
+        assert!(restart.run.is_none() && !restart.kept, "{restart:?}");
+        assert_eq!(steps, fitted.report.steps, "no step after the first run");
+    }
+}
