@@ -15,7 +15,8 @@ use crate::{Error, Image, Result};
 /// piece of the body at least two pixels wide in the wrong place. A fit that matches its masks
 /// up to a boundary offset of a pixel, or up to scattered flipped pixels, has none: a boundary
 /// offset is one pixel wide and a flipped pixel alone. A pixel that is NaN in either image
-/// counts as matching; an empty image has no block. Errors where the counts or sizes differ.
+/// counts as matching; an empty image has no block. Errors where the counts differ
+/// ([`Error::LengthMismatch`]) or the sizes ([`Error::SizeMismatch`]).
 pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
     if renders.len() != targets.len() {
         return Err(Error::LengthMismatch { what: "misfit renders", expected: targets.len(), got: renders.len() });
@@ -24,15 +25,7 @@ pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
         .iter()
         .zip(targets)
         .map(|(render, target)| {
-            if (render.width(), render.height()) != (target.width(), target.height()) {
-                return Err(Error::InvalidSettings(format!(
-                    "a render of {}×{} against a target of {}×{}",
-                    render.width(),
-                    render.height(),
-                    target.width(),
-                    target.height()
-                )));
-            }
+            render.expect_size("misfit render", target.width(), target.height())?;
             let w = render.width() as usize;
             if w == 0 {
                 return Ok(0);

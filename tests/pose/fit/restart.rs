@@ -54,7 +54,7 @@ fn misfit_blocks_are_two_by_two_pixels_off_by_more_than_half_the_same_way() {
         Err(Error::LengthMismatch { .. })
     ));
     let other = Image::from_vec(5, 6, vec![0.0; 30]).unwrap();
-    assert!(matches!(misfit_blocks(&[other], &[zero]), Err(Error::InvalidSettings(_))));
+    assert!(matches!(misfit_blocks(&[other], &[zero]), Err(Error::SizeMismatch { .. })));
 }
 
 /// The built-in figure in the random pose of seed 3, 4 views at 48².
