@@ -386,9 +386,9 @@ fn fit_seed(
     // Frame the skinned rest pose: a glTF bind-pose mesh may sit in another space (e.g. Z-up).
     let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
     let rig_seed = o.rig_seed.unwrap_or(o.seed);
-    let cameras = rig::cameras(o.views, &rest_mesh, o.view_count, o.resolution, rig_seed);
+    let (cameras, rig) = rig::cameras(o.views, &rest_mesh, o.view_count, o.resolution, rig_seed);
     if !quiet {
-        print!("{}", rig::describe(o.views, &rest_mesh, o.view_count, rig_seed));
+        print!("{rig}");
     }
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
     let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;

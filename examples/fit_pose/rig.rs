@@ -1,6 +1,6 @@
 //! The cameras of a fit of the example's own targets (`--views`, `--view-count`).
 
-use diffsil::pose::fit::{framing_orbit, orbit_cameras, RAISED_ELEVATION_DEG};
+use diffsil::pose::fit::{framing_orbit, framing_ring, RAISED_ELEVATION_DEG};
 use diffsil::random::SplitMix64;
 use diffsil::{Camera, Mesh, Orbit};
 
@@ -19,16 +19,31 @@ pub enum Layout {
 }
 
 /// The cameras of `layout` framing `rest` (the model's rest pose), `views` of them, square
-/// `resolution`; `seed` draws the irregular rig.
-pub fn cameras(layout: Layout, rest: &Mesh, views: u32, resolution: u32, seed: u64) -> Vec<Camera> {
-    let level = framing_orbit(rest, 0.0);
-    match layout {
-        Layout::Level => orbit_cameras(level, views, resolution),
-        Layout::Raised => {
-            orbit_cameras(Orbit { elevation: RAISED_ELEVATION_DEG.to_radians(), ..level }, views, resolution)
+/// `resolution` (`seed` draws the irregular rig), and one line per camera of the irregular rig
+/// (azimuth, elevation, distance over the ring's; empty for the rings).
+pub fn cameras(layout: Layout, rest: &Mesh, views: u32, resolution: u32, seed: u64) -> (Vec<Camera>, String) {
+    let elevation = match layout {
+        Layout::Level => 0.0,
+        Layout::Raised => RAISED_ELEVATION_DEG.to_radians(),
+        Layout::Irregular => {
+            let level = framing_orbit(rest, 0.0);
+            let rig = irregular(level, views, seed);
+            let description = rig
+                .iter()
+                .enumerate()
+                .map(|(k, o)| {
+                    format!(
+                        "camera {k}: azimuth {:.0}°, elevation {:.0}°, {:.2} times the ring's distance\n",
+                        o.azimuth.to_degrees(),
+                        o.elevation.to_degrees(),
+                        o.distance / level.distance
+                    )
+                })
+                .collect();
+            return (rig.iter().map(|o| o.camera(resolution, resolution)).collect(), description);
         }
-        Layout::Irregular => irregular(level, views, seed).iter().map(|o| o.camera(resolution, resolution)).collect(),
-    }
+    };
+    (framing_ring(rest, views, resolution, elevation), String::new())
 }
 
 /// The irregular rig of `seed` about the level framing orbit `level`.
@@ -45,27 +60,6 @@ fn irregular(level: Orbit, views: u32, seed: u64) -> Vec<Orbit> {
                 distance: level.distance * rng.range(1.0, 1.25),
                 ..level
             }
-        })
-        .collect()
-}
-
-/// One line per camera of the irregular rig (azimuth, elevation, distance over the ring's); empty
-/// for the rings.
-pub fn describe(layout: Layout, rest: &Mesh, views: u32, seed: u64) -> String {
-    if layout != Layout::Irregular {
-        return String::new();
-    }
-    let level = framing_orbit(rest, 0.0);
-    irregular(level, views, seed)
-        .iter()
-        .enumerate()
-        .map(|(k, o)| {
-            format!(
-                "camera {k}: azimuth {:.0}°, elevation {:.0}°, {:.2} times the ring's distance\n",
-                o.azimuth.to_degrees(),
-                o.elevation.to_degrees(),
-                o.distance / level.distance
-            )
         })
         .collect()
 }

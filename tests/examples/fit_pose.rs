@@ -268,17 +268,16 @@ mod rig;
 #[test]
 fn the_rings_are_the_librarys_and_an_irregular_rig_is_drawn_from_the_seed_and_frames_the_model() {
     use diffsil::pose::fit::{framing_orbit, framing_ring, RAISED_ELEVATION_DEG};
-    use rig::{cameras, describe, Layout};
+    use rig::{cameras, Layout};
     let rest = builtin_figure().mesh;
-    assert_eq!(cameras(Layout::Level, &rest, 4, 32, 9), framing_ring(&rest, 4, 32, 0.0));
+    assert_eq!(cameras(Layout::Level, &rest, 4, 32, 9), (framing_ring(&rest, 4, 32, 0.0), String::new()));
     let raised = framing_ring(&rest, 3, 32, RAISED_ELEVATION_DEG.to_radians());
-    assert_eq!(cameras(Layout::Raised, &rest, 3, 32, 9), raised);
-    assert_eq!(describe(Layout::Raised, &rest, 3, 9), "");
-    let rig = cameras(Layout::Irregular, &rest, 5, 32, 9);
+    assert_eq!(cameras(Layout::Raised, &rest, 3, 32, 9), (raised, String::new()));
+    let (rig, description) = cameras(Layout::Irregular, &rest, 5, 32, 9);
     assert_eq!(rig.len(), 5);
-    assert_eq!(rig, cameras(Layout::Irregular, &rest, 5, 32, 9), "the same seed, the same rig");
-    assert_ne!(rig, cameras(Layout::Irregular, &rest, 5, 32, 10));
-    let lines: Vec<String> = describe(Layout::Irregular, &rest, 5, 9).lines().map(str::to_owned).collect();
+    assert_eq!(rig, cameras(Layout::Irregular, &rest, 5, 32, 9).0, "the same seed, the same rig");
+    assert_ne!(rig, cameras(Layout::Irregular, &rest, 5, 32, 10).0);
+    let lines: Vec<String> = description.lines().map(str::to_owned).collect();
     assert_eq!(lines.len(), 5, "{lines:?}");
     let ring = framing_orbit(&rest, 0.0);
     for (k, (camera, line)) in rig.iter().zip(&lines).enumerate() {
