@@ -227,6 +227,8 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
+        // The swap test's defaults are `SwapTest`'s, held here field by field.
+        let swap = SwapTest::default();
         FitOptions {
             steps: 300,
             learning_rate: 0.02,
@@ -250,14 +252,14 @@ impl Default for FitOptions {
             outline_rate: FitOptions::OUTLINE_RATE,
             outline_settle: 0.0,
             warmup: 0,
-            swap_steps: FitOptions::SWAP_STEPS,
-            swap_screen: SwapScreen::default(),
+            swap_steps: swap.steps,
+            swap_screen: swap.screen,
             coarse_proxy: FitOptions::COARSE_PROXY,
             crossed_legs_within: FitOptions::CROSSED_LEGS_WITHIN,
             crossed_legs_loose_within: FitOptions::CROSSED_LEGS_LOOSE_WITHIN,
             crossed_legs_excess: FitOptions::CROSSED_LEGS_EXCESS,
             fourth_run_below: FitOptions::FOURTH_RUN_BELOW,
-            head_turn_below: 0.0,
+            head_turn_below: swap.head_turn_below,
             restart_arm_swing: FitOptions::RESTART_ARM_SWING,
         }
     }
