@@ -47,12 +47,13 @@ pub fn evaluate(
         if o.plain { "plain descent" } else { "fit::fit" }
     );
     let (mut errors, mut seconds, mut steps, mut second_runs, mut restarts) = (Vec::new(), 0.0, 0u64, 0, 0);
+    let mut thinned = 0;
     let mut height = 0.0;
     let cpu_before = cpu_seconds();
     for (label, case) in cases {
         let outcome = fit_seed(model, &case, false, true)?;
         println!(
-            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}{}",
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}{}{}",
             outcome.error_m * 1000.0,
             outcome.steps,
             outcome.stop,
@@ -76,13 +77,15 @@ pub fn evaluate(
                 Some(true) => ", restart: kept",
                 Some(false) => ", restart: not kept",
                 None => "",
-            }
+            },
+            if outcome.thinned { " (targets thinned)" } else { "" }
         );
         errors.push(outcome.error_m * 1000.0);
         seconds += outcome.seconds;
         steps += u64::from(outcome.steps);
         second_runs += usize::from(matches!(outcome.crossed, Some((true, _))));
         restarts += usize::from(outcome.restart.is_some());
+        thinned += usize::from(outcome.thinned);
         height = outcome.height_m;
     }
     let fits = errors.len() as f64;
@@ -95,7 +98,7 @@ pub fn evaluate(
     println!(
         "summary: median={:.1}mm p90={:.1}mm worst={:.1}mm failures={failures}/{} (above {limit_mm:.0} mm = 2% of \
          {:.2} m) wall_s_per_fit={:.2} cpu_s_per_fit={cpu} steps_per_fit={:.0} second_runs={second_runs} \
-         restarts={restarts}",
+         restarts={restarts} thinned={thinned}",
         median(errors.clone()),
         quantile(&errors, 0.9),
         errors.iter().copied().fold(0.0, f64::max),

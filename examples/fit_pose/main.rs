@@ -168,6 +168,10 @@ pub struct Options {
     /// pixels wide; 0: no restart [default: FitOptions::RESTART_ARM_SWING, 0.4]
     #[arg(long, value_name = "X", value_parser = finite)]
     restart_arm_swing: Option<f32>,
+    /// No restarts where the targets look thinned (FitOptions::thinned_restarts: the fit's
+    /// outline nuisance at or below −0.5, masks eroded by a pixel)
+    #[arg(long)]
+    no_thinned_restarts: bool,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -308,6 +312,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
             swap_steps: 0,
             crossed_legs_within: 0.0,
             restart_arm_swing: 0.0,
+            thinned_restarts: Vec::new(),
             ..defaults
         };
     }
@@ -341,6 +346,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
         fourth_run_below: o.fourth_run_below.map_or(defaults.fourth_run_below, f64::from),
         head_turn_below: o.head_turns.map_or(defaults.head_turn_below, f64::from),
         restart_arm_swing: o.restart_arm_swing.unwrap_or(defaults.restart_arm_swing),
+        thinned_restarts: if o.no_thinned_restarts { Vec::new() } else { defaults.thinned_restarts.clone() },
         ..defaults
     }
 }
@@ -362,6 +368,8 @@ struct Outcome {
     crossed: Option<(bool, CrossedLegsEnd)>,
     /// Whether the restart ran and, if so, whether the fit ends at it (`FitOptions::restart_arm_swing`).
     restart: Option<bool>,
+    /// Whether the fit found its targets thinned (`FitOptions::thinned_below`).
+    thinned: bool,
 }
 
 /// Fits one seed; writes pictures when `pictures` is set.
@@ -419,7 +427,8 @@ fn fit_seed(
     let swap = fitted.swap.as_ref().and_then(|s| s.kept);
     let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
     let crossed_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
-    let restart = fitted.restart.as_ref().and_then(|r| r.run.as_ref().map(|run| (r.kept, run.steps())));
+    let restart = fitted.restart.as_ref().filter(|r| !r.runs.is_empty()).map(|r| (r.kept.is_some(), r.steps()));
+    let thinned = fitted.restart.as_ref().is_some_and(|r| r.thinned);
     if !quiet {
         report::print_fitted(&fitted);
     }
@@ -458,6 +467,7 @@ fn fit_seed(
         swap,
         crossed,
         restart: restart.map(|r| r.0),
+        thinned,
     })
 }
 

@@ -39,16 +39,20 @@ pub fn print_fitted(fitted: &Fitted) {
         );
     }
     if let Some(r) = &fitted.restart {
-        match &r.run {
-            None => println!("misfit blocks {:?}: no restart", r.misfit_blocks),
-            Some(run) => println!(
-                "misfit blocks {:?}: restart with the arms swung, {} steps, energy {:.3e} → {}, {}",
-                r.misfit_blocks,
+        let check = format!("misfit blocks {:?}{}", r.misfit_blocks, if r.thinned { ", targets thinned" } else { "" });
+        if r.runs.is_empty() {
+            println!("{check}: no restart");
+        }
+        for (k, run) in r.runs.iter().enumerate() {
+            println!(
+                "{check}: restart from leg stride {} / arm swing {}, {} steps, energy {:.3e} → {}, {}",
+                run.starts.leg_stride,
+                run.starts.arm_swing,
                 run.steps(),
                 r.first_energy,
                 energy(run.energy),
-                if r.kept { "kept" } else { "not kept" }
-            ),
+                if r.kept == Some(k) { "kept" } else { "not kept" }
+            );
         }
     }
 }

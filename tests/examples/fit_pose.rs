@@ -310,6 +310,8 @@ fn plain_is_the_papers_descent_and_the_default_is_the_librarys_method() {
         (0.0, 0.0, 0, 0.0, 0.0),
         "no blur, prior, swap test, crossed legs or restart"
     );
+    assert!(plain.thinned_restarts.is_empty(), "no restarts for thinned targets either");
     assert_eq!(parse(&["fit_pose"]), FitOptions::default());
     assert_eq!(parse(&["fit_pose", "--restart-arm-swing", "0"]).restart_arm_swing, 0.0);
+    assert!(parse(&["fit_pose", "--no-thinned-restarts"]).thinned_restarts.is_empty());
 }

@@ -87,7 +87,7 @@ impl PoseFit {
     }
 
     /// The outline nuisance `a` when it is applied (`a` ≠ 0 or fitted).
-    pub(super) fn outline_setting(&self) -> Option<f32> {
+    pub(in crate::pose::fit) fn outline_setting(&self) -> Option<f32> {
         (self.outline != 0.0 || self.outline_rate > 0.0).then_some(self.outline)
     }
 

@@ -1,12 +1,14 @@
 //! What [`fit`](super::fit) does last where its result still misses a piece of the targets
-//! ([`misfit_blocks`]): the whole method once more from other starting poses (the arms swung
-//! forward and back, [`FitOptions::restart_arm_swing`]), and the fit ends at the lower energy.
+//! ([`misfit_blocks`]) or its targets look thinned (the outline nuisance near −1): the whole
+//! method once more from other starting poses (the arms swung forward and back,
+//! [`FitOptions::restart_arm_swing`]; for thinned targets each family of
+//! [`FitOptions::thinned_restarts`]), and the fit ends at the lowest energy.
 
 use std::ops::ControlFlow;
 
 use super::crossed_runs::runs_from_crossed_legs;
 use super::method::run_and_swap;
-use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Stop, SwapReport};
+use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Stop, SwapReport};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
 
@@ -54,27 +56,59 @@ pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
         .collect()
 }
 
-/// What [`fit`](super::fit) found where its first pass (the first run, its swap test and the
-/// runs from the crossed legs) ended, and the restart where it ran.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RestartReport {
-    /// [`misfit_blocks`] of the first pass's result, per view: the restart runs where any is
-    /// not 0.
-    pub misfit_blocks: Vec<u32>,
-    /// The energy ([`PoseFit::energy`]) where the first pass ended.
-    pub first_energy: f64,
-    /// The restart; `None` where it did not run: no misfit block, or its starting poses would
-    /// be the first run's (a fit without blur has only the initial pose; a first run whose
-    /// arms were swung by as much already).
-    pub run: Option<RestartRun>,
-    /// Whether the fit ends at the restart's result (its energy strictly below `first_energy`).
-    pub kept: bool,
+/// A family of starting poses ([`limb_swing_hypotheses`](super::limb_swing_hypotheses)): the
+/// legs' stride and the arms' swing, in radians, both finite and ≥ 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LimbSwing {
+    /// Leg stride of the extra starting poses ([`FitOptions::leg_stride`]).
+    pub leg_stride: f32,
+    /// Arm swing of the extra starting poses ([`FitOptions::arm_swing`]).
+    pub arm_swing: f32,
 }
 
-/// The method run again from the arms swung ([`FitOptions::restart_arm_swing`]).
+impl LimbSwing {
+    /// Errors ([`Error::InvalidSettings`]) where either angle is not finite or is negative.
+    pub fn validate(&self) -> Result<()> {
+        if [self.leg_stride, self.arm_swing].iter().all(|a| a.is_finite() && *a >= 0.0) {
+            Ok(())
+        } else {
+            Err(Error::InvalidSettings(format!(
+                "a restart's leg stride and arm swing must be finite and ≥ 0, got {} and {}",
+                self.leg_stride, self.arm_swing
+            )))
+        }
+    }
+}
+
+/// What [`fit`](super::fit) found where its first pass (the first run, its swap test and the
+/// runs from the crossed legs) ended, and the restarts where they ran.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RestartReport {
+    /// [`misfit_blocks`] of the first pass's result, per view: the restart from the arms swung
+    /// ([`FitOptions::restart_arm_swing`]) runs where any is not 0.
+    pub misfit_blocks: Vec<u32>,
+    /// Whether the first pass found its targets thinned: its outline nuisance
+    /// ([`PoseFit::outline`]) at or below [`FitOptions::thinned_below`]. The restarts of
+    /// [`FitOptions::thinned_restarts`] then run, whatever the misfit blocks.
+    pub thinned: bool,
+    /// The energy ([`PoseFit::energy`]) where the first pass ended.
+    pub first_energy: f64,
+    /// The restarts that ran, in order; empty where none did: no misfit block and targets not
+    /// thinned, or every restart's starting poses were the first run's (a fit without blur has
+    /// only the initial pose) or an earlier restart's.
+    pub runs: Vec<RestartRun>,
+    /// Which of `runs` the fit ends at: the lowest energy, where strictly below `first_energy`
+    /// (an earlier run where two end at the same); `None`: the first pass's result.
+    pub kept: Option<usize>,
+}
+
+/// The method run again from other starting poses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RestartRun {
-    /// The run's report; its steps follow the first pass's in the callback's [`Progress`].
+    /// The family of starting poses it ran from.
+    pub starts: LimbSwing,
+    /// The run's report; its steps follow the first pass's (and the earlier restarts') in the
+    /// callback's [`Progress`].
     pub report: RunReport,
     /// Its swap test; `None` when it did not run.
     pub swap: Option<SwapReport>,
@@ -91,11 +125,20 @@ impl RestartRun {
     }
 }
 
-/// The restart of [`fit`](super::fit) after a first pass from `first_starts` of `first_steps`
-/// steps (the outline's rate at the start `outline_rate`): where the fit misses a piece of its
-/// targets, the method again from its starting poses with the arms swung by
-/// [`FitOptions::restart_arm_swing`] (where those differ from `first_starts`), and the fit left
-/// at the lower end.
+impl RestartReport {
+    /// Adam steps of all the restarts.
+    pub fn steps(&self) -> u32 {
+        self.runs.iter().map(RestartRun::steps).sum()
+    }
+}
+
+/// The restarts of [`fit`](super::fit) after a first pass from `first_starts` of `first_steps`
+/// steps (the outline's rate at the start `outline_rate`): where the targets look thinned
+/// ([`FitOptions::thinned_below`]), the method again from each family of
+/// [`FitOptions::thinned_restarts`]; otherwise, where the fit misses a piece of its targets,
+/// from the arms swung by [`FitOptions::restart_arm_swing`]. A family whose starting poses are
+/// the first run's or an earlier restart's is skipped; the fit is left at the lowest end, and a
+/// cancelled restart ends the restarts.
 pub(super) fn restart_where_misfit(
     fit: &mut PoseFit,
     options: &FitOptions,
@@ -106,35 +149,64 @@ pub(super) fn restart_where_misfit(
 ) -> Result<RestartReport> {
     let (first_energy, renders) = fit.energy_and_renders()?;
     let misfit_blocks = misfit_blocks(&fit.outlined(&renders), fit.targets())?;
-    let mut outcome = RestartReport { misfit_blocks, first_energy, run: None, kept: false };
-    if outcome.misfit_blocks.iter().all(|&b| b == 0) {
-        return Ok(outcome);
-    }
-    let swung = FitOptions { arm_swing: options.restart_arm_swing, ..options.clone() };
-    let (schedule, starts) = swung.plan(fit.model())?;
-    if starts == first_starts {
-        // Nothing else to try (no blur, so no starting poses; or the first run's arms swung
-        // already): the restart would end where the first pass did.
-        return Ok(outcome);
-    }
-    let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
-    if options.fit_outline {
-        fit.set_outline_rate(outline_rate)?;
-    }
-    let mut callback =
-        |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: first_steps + progress.step, ..*progress });
-    let (report, swap) = run_and_swap(fit, &swung, &schedule, &starts, &mut callback)?;
-    let crossed_legs = if swung.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
-        runs_from_crossed_legs(fit, &swung, &schedule, report.steps, outline_rate, &mut callback)?
+    let thinned = fit.outline_setting().is_some_and(|a| a <= options.thinned_below);
+    let families = if thinned && !options.thinned_restarts.is_empty() {
+        options.thinned_restarts.clone()
+    } else if misfit_blocks.iter().any(|&b| b > 0) && options.restart_arm_swing > 0.0 {
+        vec![LimbSwing { leg_stride: options.leg_stride, arm_swing: options.restart_arm_swing }]
     } else {
-        None
+        Vec::new()
     };
-    let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
-    outcome.kept = energy.is_some_and(|e| e < first_energy);
-    if !outcome.kept {
-        fit.set_state(first)?;
-        fit.set_outline_rate(first_outline_rate)?;
+    let mut outcome = RestartReport { misfit_blocks, thinned, first_energy, runs: Vec::new(), kept: None };
+    let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
+    let mut tried = vec![first_starts.to_vec()];
+    // The lowest end so far among the restarts: its energy, its state and outline rate.
+    let mut lowest: Option<(f64, FitState, f32)> = None;
+    let mut steps = first_steps;
+    for starts_family in families {
+        let restarted =
+            FitOptions { leg_stride: starts_family.leg_stride, arm_swing: starts_family.arm_swing, ..options.clone() };
+        let (schedule, starts) = restarted.plan(fit.model())?;
+        if tried.contains(&starts) {
+            // The same starting poses would end where the first pass or that restart did.
+            continue;
+        }
+        tried.push(starts.clone());
+        if options.fit_outline {
+            fit.set_outline_rate(outline_rate)?;
+        }
+        let offset = steps;
+        let mut callback =
+            |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
+        let (report, swap) = run_and_swap(fit, &restarted, &schedule, &starts, &mut callback)?;
+        let crossed_legs = if restarted.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
+            runs_from_crossed_legs(fit, &restarted, &schedule, report.steps, outline_rate, &mut callback)?
+        } else {
+            None
+        };
+        let cancelled = report.stop == Stop::Cancelled
+            || crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled));
+        let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+        let run = RestartRun { starts: starts_family, report, swap, crossed_legs, energy };
+        steps += run.steps();
+        if let Some(e) = energy {
+            if e < lowest.as_ref().map_or(first_energy, |l| l.0) {
+                lowest = Some((e, fit.state(), fit.outline_rate()));
+                outcome.kept = Some(outcome.runs.len());
+            }
+        }
+        outcome.runs.push(run);
+        if cancelled {
+            break;
+        }
     }
-    outcome.run = Some(RestartRun { report, swap, crossed_legs, energy });
+    if !outcome.runs.is_empty() {
+        let (state, rate) = match lowest {
+            Some((_, state, rate)) => (state, rate),
+            None => (first, first_outline_rate),
+        };
+        fit.set_state(state)?;
+        fit.set_outline_rate(rate)?;
+    }
     Ok(outcome)
 }

@@ -1,11 +1,13 @@
-//! The restart of `fit::fit` (`FitOptions::restart_arm_swing`): `misfit_blocks` counts the 2×2
-//! blocks a fit misses, the restart runs only where there is one, runs the method again from
-//! the arms swung, and the fit ends at the lower energy.
+//! The restarts of `fit::fit` (`FitOptions::restart_arm_swing`, `FitOptions::thinned_restarts`):
+//! `misfit_blocks` counts the 2×2 blocks a fit misses, the restart runs only where there is one,
+//! runs the method again from the arms swung, and the fit ends at the lower energy; where the
+//! targets look thinned (the fitted outline near −1), the method runs again from each family of
+//! starting poses and the fit ends at the lowest.
 
 use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, Stop};
+use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, LimbSwing, PoseFit, Stop};
 use diffsil::pose::skin::SkinnedMesh;
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
 
@@ -90,10 +92,13 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     .unwrap();
     let restart = fitted.restart.clone().expect("looked at");
     assert!(restart.misfit_blocks.iter().any(|&b| b > 0), "{restart:?}");
-    let run = restart.run.as_ref().expect("a misfit restarts");
+    assert!(!restart.thinned, "exact masks: {restart:?}");
+    assert_eq!(restart.runs.len(), 1, "the arms swung alone: {restart:?}");
+    let run = &restart.runs[0];
+    assert_eq!(run.starts, LimbSwing { leg_stride: 0.3, arm_swing: FitOptions::RESTART_ARM_SWING });
     assert_eq!(fitted.report.steps + run.steps(), last_step);
     let end = run.energy.expect("not cancelled");
-    assert_eq!(restart.kept, end < restart.first_energy);
+    assert_eq!(restart.kept, (end < restart.first_energy).then_some(0));
     assert_eq!(energy(&mut fitted.fit), end.min(restart.first_energy), "at the lower end");
     // The restart is the method from the arms swung: the same end as a fit asked for that.
     let swung = FitOptions { arm_swing: FitOptions::RESTART_ARM_SWING, restart_arm_swing: 0.0, ..short() };
@@ -101,7 +106,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     assert_eq!(energy(&mut alone.fit), end);
     assert_eq!(alone.report.steps, run.report.steps);
     // Without it, the first pass is the fit, and the same as with it up to there.
-    let off = FitOptions { restart_arm_swing: 0.0, ..short() };
+    let off = FitOptions { restart_arm_swing: 0.0, thinned_restarts: Vec::new(), ..short() };
     let mut first = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
     assert!(first.restart.is_none());
     assert_eq!(energy(&mut first.fit), restart.first_energy);
@@ -117,8 +122,9 @@ fn a_fit_that_matches_its_masks_takes_no_restart() {
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
     let restart = fitted.restart.expect("looked at");
     assert_eq!(restart.misfit_blocks, vec![0; 4]);
-    assert!(restart.run.is_none() && !restart.kept);
-    let off = FitOptions { restart_arm_swing: 0.0, ..options };
+    assert!(!restart.thinned);
+    assert!(restart.runs.is_empty() && restart.kept.is_none());
+    let off = FitOptions { restart_arm_swing: 0.0, thinned_restarts: Vec::new(), ..options };
     let without = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
     assert_eq!(fitted.fit.pose(), without.fit.pose());
 }
@@ -140,9 +146,10 @@ fn a_cancelled_restart_leaves_the_first_pass_and_a_bad_swing_is_an_error_before_
     .unwrap();
     assert_eq!(first_steps, Some(20));
     let restart = fitted.restart.clone().expect("looked at");
-    let run = restart.run.as_ref().expect("it ran until cancelled");
+    assert_eq!(restart.runs.len(), 1, "it ran until cancelled");
+    let run = &restart.runs[0];
     assert_eq!(run.report.stop, Stop::Cancelled);
-    assert_eq!((run.energy, restart.kept), (None, false));
+    assert_eq!((run.energy, restart.kept), (None, None));
     assert_eq!(energy(&mut fitted.fit), restart.first_energy, "back at the first pass's end");
     for bad in [f32::NAN, -0.1, f32::INFINITY] {
         let options = FitOptions { restart_arm_swing: bad, ..short() };
@@ -170,7 +177,119 @@ fn no_restart_where_its_starting_poses_would_be_the_first_runs() {
         .unwrap();
         let restart = fitted.restart.expect("looked at");
         assert!(restart.misfit_blocks.iter().any(|&b| b > 0), "a misfit: {restart:?}");
-        assert!(restart.run.is_none() && !restart.kept, "{restart:?}");
+        assert!(restart.runs.is_empty() && restart.kept.is_none(), "{restart:?}");
         assert_eq!(steps, fitted.report.steps, "no step after the first run");
+    }
+}
+
+/// `targets` eroded by a pixel: each pixel the minimum of its 3×3 neighbourhood (outside the
+/// image counts as background), as masks thinner than the body.
+fn eroded(targets: &[Image]) -> Vec<Image> {
+    targets
+        .iter()
+        .map(|t| {
+            let (w, h) = (t.width() as i64, t.height() as i64);
+            let mut out = t.clone();
+            for i in 0..h {
+                for j in 0..w {
+                    let mut v = 1.0f32;
+                    for (di, dj) in (-1..=1).flat_map(|di| (-1..=1).map(move |dj| (di, dj))) {
+                        let (r, c) = (i + di, j + dj);
+                        let inside = r >= 0 && c >= 0 && r < h && c < w;
+                        v = v.min(if inside { t.get(r as u32, c as u32) } else { 0.0 });
+                    }
+                    out.data_mut()[(i * w + j) as usize] = v;
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// Options whose first pass ends with the outline fitted near −1 on eroded targets.
+fn thinned_options() -> FitOptions {
+    FitOptions { steps: 30, crossed_legs_within: 0.0, ..FitOptions::default() }
+}
+
+#[test]
+fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
+    let (model, cameras, targets) = scene();
+    let targets = eroded(&targets);
+    let mut last_step = 0;
+    let options = thinned_options();
+    let mut fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, p| {
+        assert_eq!(p.step, last_step + 1, "each restart's steps follow the ones before");
+        last_step = p.step;
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let restart = fitted.restart.clone().expect("looked at");
+    assert!(restart.thinned, "eroded targets: outline {} ({restart:?})", fitted.fit.outline());
+    let starts: Vec<LimbSwing> = restart.runs.iter().map(|r| r.starts).collect();
+    assert_eq!(starts, FitOptions::THINNED_RESTARTS.to_vec(), "every family, in order");
+    assert_eq!(fitted.report.steps + restart.steps(), last_step);
+    let energies: Vec<f64> = restart.runs.iter().map(|r| r.energy.expect("not cancelled")).collect();
+    let lowest = energies.iter().copied().fold(restart.first_energy, f64::min);
+    assert_eq!(energy(&mut fitted.fit), lowest, "at the lowest end: {energies:?}, first {}", restart.first_energy);
+    let kept = energies.iter().position(|&e| e == lowest).filter(|_| lowest < restart.first_energy);
+    assert_eq!(restart.kept, kept);
+    // Each restart is the method from its family: the same end as a fit asked for that.
+    for (run, family) in restart.runs.iter().zip(FitOptions::THINNED_RESTARTS) {
+        let alone = FitOptions {
+            leg_stride: family.leg_stride,
+            arm_swing: family.arm_swing,
+            restart_arm_swing: 0.0,
+            thinned_restarts: Vec::new(),
+            ..options.clone()
+        };
+        let mut alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &alone, go_on).unwrap();
+        assert_eq!(Some(energy(&mut alone.fit)), run.energy, "{family:?}");
+    }
+    // Without them, the misfit restart alone (where there is a block), from the same first pass.
+    let off = FitOptions { thinned_restarts: Vec::new(), ..options.clone() };
+    let without = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap();
+    let without = without.restart.expect("looked at");
+    assert_eq!(without.first_energy, restart.first_energy);
+    assert!(without.runs.len() <= 1, "{without:?}");
+    // A family that repeats the first run's starting poses or an earlier family's is skipped.
+    let first_run = LimbSwing { leg_stride: options.leg_stride, arm_swing: options.arm_swing };
+    let twice = FitOptions { thinned_restarts: vec![first_run, starts[1], starts[1]], ..options.clone() };
+    let once = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &twice, go_on).unwrap();
+    let once = once.restart.expect("looked at");
+    assert_eq!(once.runs.iter().map(|r| r.starts).collect::<Vec<_>>(), vec![starts[1]]);
+    assert_eq!(once.runs[0].energy, restart.runs[1].energy);
+}
+
+#[test]
+fn the_thinned_bound_decides_and_bad_families_are_errors_before_any_step() {
+    let (model, cameras, exact) = scene();
+    // Exact targets count as thinned when the bound is above the fitted outline ...
+    let options = FitOptions { thinned_below: 1.0, restart_arm_swing: 0.0, ..thinned_options() };
+    let fitted = fit(model.clone(), cameras.clone(), exact.clone(), renderer(), &options, go_on).unwrap();
+    let restart = fitted.restart.expect("looked at");
+    assert!(restart.thinned && restart.runs.len() == 3, "{restart:?}");
+    // ... and eroded ones do not when it is below −1.
+    let options = FitOptions { thinned_below: -1.5, restart_arm_swing: 0.0, ..thinned_options() };
+    let fitted = fit(model.clone(), cameras.clone(), eroded(&exact), renderer(), &options, go_on).unwrap();
+    let restart = fitted.restart.expect("looked at");
+    assert!(!restart.thinned && restart.runs.is_empty(), "{restart:?}");
+    // Without the outline fitted, nothing counts as thinned.
+    let options = FitOptions { thinned_below: 1.0, restart_arm_swing: 0.0, fit_outline: false, ..thinned_options() };
+    let fitted = fit(model.clone(), cameras.clone(), eroded(&exact), renderer(), &options, go_on).unwrap();
+    assert!(!fitted.restart.expect("looked at").thinned);
+    let bad_families = [
+        LimbSwing { leg_stride: f32::NAN, arm_swing: 0.4 },
+        LimbSwing { leg_stride: 0.3, arm_swing: -0.1 },
+        LimbSwing { leg_stride: f32::INFINITY, arm_swing: 0.0 },
+    ];
+    let bad_options = bad_families
+        .into_iter()
+        .map(|family| FitOptions { thinned_restarts: vec![family], ..short() })
+        .chain([f32::NAN, f32::NEG_INFINITY].map(|bound| FitOptions { thinned_below: bound, ..short() }));
+    for options in bad_options {
+        let result = fit(model.clone(), cameras.clone(), exact.clone(), renderer(), &options, |_, _| {
+            panic!("a step before the thinned restarts were checked")
+        });
+        assert!(matches!(result, Err(Error::InvalidSettings(_))), "{result:?}");
     }
 }
