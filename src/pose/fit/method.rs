@@ -213,7 +213,8 @@ pub struct FitOptions {
     /// pixels wide ([`misfit_blocks`](super::misfit_blocks) not all 0), [`fit`] runs the whole
     /// method once more from the initial pose with the arms also swung forward and back by this
     /// much, and ends at whichever of the two ends with the lower energy
-    /// ([`Fitted::restart`]). Default [`FitOptions::RESTART_ARM_SWING`].
+    /// ([`Fitted::restart`]); where the targets look thinned, [`FitOptions::thinned_restarts`]
+    /// run instead. Default [`FitOptions::RESTART_ARM_SWING`].
     ///
     /// The failures left after the first pass are descent failures (the true pose's energy a
     /// tenth of the fit's end or less), and another family of starting poses reaches the true
