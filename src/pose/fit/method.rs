@@ -240,8 +240,8 @@ pub struct FitOptions {
     /// so the descent ends with it elsewhere (the true pose's energy still lower), without a
     /// misfit block that would restart it. Which start reaches the true pose's basin varies
     /// from fit to fit, so several families are tried and the energy picks. On masks eroded by
-    /// a pixel this took the MakeHuman body's failures from 21 to 8 in 40 fits and the built-in
-    /// figure's from 17 to 4 in 80 (held-out seeds among them), a thinned fit taking three to
+    /// a pixel this took the MakeHuman body's failures from 25 to 13 in 60 fits and the built-in
+    /// figure's from 23 to 4 in 120 (held-out seeds among them; one fit became a failure), a thinned fit taking three to
     /// four times as long; no fit on exact, dilated or flipped masks counted as thinned.
     pub thinned_restarts: Vec<LimbSwing>,
 }

@@ -188,7 +188,7 @@
 //!     nuisance tells such masks (−0.96 to −1 where eroded, above −0.05 otherwise), and where
 //!     it ends at or below [`FitOptions::thinned_below`] the whole method runs again from three
 //!     families of starting poses ([`LimbSwing`]) and the lowest energy is kept. On eroded
-//!     masks the body's failures went from 21 to 8 in 40 and the figure's from 17 to 4 in 80,
+//!     masks the body's failures went from 25 to 13 in 60 and the figure's from 23 to 4 in 120,
 //!     at three to four times the time of such a fit.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
