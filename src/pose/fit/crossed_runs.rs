@@ -5,7 +5,7 @@
 use std::ops::ControlFlow;
 
 use super::descent::changed_pixels;
-use super::method::run_and_swap;
+use super::pass::run_and_swap;
 use super::{crossed_legs, FitOptions, PoseFit, Progress, RunReport, Schedule, Stop, SwapReport};
 use crate::Result;
 

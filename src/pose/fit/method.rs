@@ -2,10 +2,10 @@
 
 use std::ops::ControlFlow;
 
-use super::crossed_runs::runs_from_crossed_legs;
+use super::pass::{run_pass, Pass};
 use super::restart::{restart_where_misfit, LimbSwing, RestartReport};
 use super::{limb_swing_hypotheses, Convergence, CrossedLegsReport, Free, PoseFit, Progress, RunReport, Schedule};
-use super::{FitSettings, Stage, Stop, SwapReport, SwapScreen, SwapTest};
+use super::{FitSettings, Stage, SwapReport, SwapScreen, SwapTest};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Renderer, Result};
 
@@ -560,38 +560,13 @@ pub fn fit(
     }
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;
-    let (report, swap) = run_and_swap(&mut fit, options, &schedule, &hypotheses, &mut on_step)?;
-    let crossed_legs = if options.fit_pose && options.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
-        runs_from_crossed_legs(&mut fit, options, &schedule, report.steps, outline_rate, &mut on_step)?
-    } else {
-        None
-    };
-    let cancelled = report.stop == Stop::Cancelled
-        || crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled));
+    let first = run_pass(&mut fit, options, &schedule, &hypotheses, outline_rate, &mut on_step)?;
     let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty();
-    let restart = if options.fit_pose && restarts && !cancelled {
-        let first_steps = report.steps + crossed_legs.as_ref().map_or(0, |c| c.steps());
-        Some(restart_where_misfit(&mut fit, options, &hypotheses, first_steps, outline_rate, &mut on_step)?)
+    let restart = if options.fit_pose && restarts && !first.cancelled() {
+        Some(restart_where_misfit(&mut fit, options, &hypotheses, first.steps(), outline_rate, &mut on_step)?)
     } else {
         None
     };
+    let Pass { report, swap, crossed_legs } = first;
     Ok(Fitted { fit, report, swap, crossed_legs, restart })
-}
-
-/// One run of `schedule` from `starts`, then the swap test ([`FitOptions::swap_steps`]) unless
-/// the run was cancelled.
-pub(super) fn run_and_swap(
-    fit: &mut PoseFit,
-    options: &FitOptions,
-    schedule: &Schedule,
-    starts: &[Pose],
-    on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
-) -> Result<(RunReport, Option<SwapReport>)> {
-    let report = fit.run(schedule, starts, &mut *on_step)?;
-    let swap = if options.swap_steps > 0 && options.fit_pose && report.stop != Stop::Cancelled {
-        Some(fit.swap_limbs(&options.swap_test())?)
-    } else {
-        None
-    };
-    Ok((report, swap))
 }

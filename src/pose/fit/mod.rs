@@ -204,6 +204,7 @@ mod descent;
 mod inflation;
 mod method;
 mod outline;
+mod pass;
 mod poses;
 mod restart;
 mod schedule;

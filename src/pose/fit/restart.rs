@@ -6,8 +6,7 @@
 
 use std::ops::ControlFlow;
 
-use super::crossed_runs::runs_from_crossed_legs;
-use super::method::run_and_swap;
+use super::pass::{run_pass, Pass};
 use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Stop, SwapReport};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
@@ -178,15 +177,10 @@ pub(super) fn restart_where_misfit(
         let offset = steps;
         let mut callback =
             |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-        let (report, swap) = run_and_swap(fit, &restarted, &schedule, &starts, &mut callback)?;
-        let crossed_legs = if restarted.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
-            runs_from_crossed_legs(fit, &restarted, &schedule, report.steps, outline_rate, &mut callback)?
-        } else {
-            None
-        };
-        let cancelled = report.stop == Stop::Cancelled
-            || crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled));
-        let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+        let pass = run_pass(fit, &restarted, &schedule, &starts, outline_rate, &mut callback)?;
+        let cancelled = pass.cancelled();
+        let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+        let Pass { report, swap, crossed_legs } = pass;
         let run = RestartRun { starts: starts_family, report, swap, crossed_legs, energy };
         steps += run.steps();
         if let Some(e) = energy {
