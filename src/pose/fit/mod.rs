@@ -203,6 +203,7 @@ mod crossed_runs;
 mod descent;
 mod inflation;
 mod method;
+mod options;
 mod outline;
 mod pass;
 mod poses;
@@ -216,7 +217,8 @@ pub use descent::{
     SwapReport, SwapScreen, SwapTest,
 };
 pub use inflation::vertex_normals;
-pub use method::{fit, FitOptions, Fitted};
+pub use method::{fit, Fitted};
+pub use options::FitOptions;
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
 pub use restart::{misfit_blocks, LimbSwing, RestartReport, RestartRun};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};

@@ -186,3 +186,42 @@ fn a_hip_joint_at_the_pelvis_stands_for_its_thigh() {
         assert!((l.z + r.z).abs() < 0.1 * l.z.abs(), "feet moved by {l} and {r}");
     }
 }
+
+#[test]
+fn options_out_of_range_are_errors_without_a_model() {
+    use diffsil::pose::fit::{LimbSwing, SwapScreen};
+    use diffsil::Error;
+    assert!(FitOptions::default().validate().is_ok());
+    let d = FitOptions::default;
+    let cases = [
+        ("pose prior", FitOptions { pose_prior: -1.0, ..d() }),
+        ("coarse proxy", FitOptions { coarse_proxy: f32::NAN, ..d() }),
+        ("coarse blur", FitOptions { coarse_blur: 1.5, ..d() }),
+        ("coarse prior scale", FitOptions { coarse_prior_scale: f32::INFINITY, ..d() }),
+        ("outline settle", FitOptions { outline_settle: -0.1, ..d() }),
+        ("leg stride", FitOptions { leg_stride: f32::NAN, ..d() }),
+        ("arm swing", FitOptions { arm_swing: f32::NEG_INFINITY, ..d() }),
+        ("inflation rate", FitOptions { fit_inflation: true, inflation_rate: 0.0, ..d() }),
+        ("outline rate", FitOptions { outline_rate: f32::NAN, ..d() }),
+        ("crossed legs bound", FitOptions { crossed_legs_within: -1.0, ..d() }),
+        ("looser bound", FitOptions { crossed_legs_loose_within: f64::NAN, ..d() }),
+        ("excess bound", FitOptions { crossed_legs_excess: f64::INFINITY, ..d() }),
+        ("fourth run bound", FitOptions { fourth_run_below: 1.5, ..d() }),
+        ("swap screen", FitOptions { swap_screen: SwapScreen { within: f64::NAN, ..SwapScreen::default() }, ..d() }),
+        ("head turn bound", FitOptions { head_turn_below: -0.5, ..d() }),
+        ("restart arm swing", FitOptions { restart_arm_swing: -0.4, ..d() }),
+        ("thinned bound", FitOptions { thinned_below: f32::NAN, ..d() }),
+        (
+            "thinned family",
+            FitOptions { thinned_restarts: vec![LimbSwing { leg_stride: 0.3, arm_swing: f32::NAN }], ..d() },
+        ),
+    ];
+    let figure = builtin_figure();
+    for (what, options) in cases {
+        assert!(matches!(options.validate(), Err(Error::InvalidSettings(_))), "{what}");
+        assert!(matches!(options.plan(&figure), Err(Error::InvalidSettings(_))), "{what}: plan");
+    }
+    // A setting only read where its part is fitted is not checked where it is not.
+    assert!(FitOptions { fit_inflation: false, inflation_rate: 0.0, ..d() }.validate().is_ok());
+    assert!(FitOptions { fit_outline: false, outline_rate: f32::NAN, ..d() }.validate().is_ok());
+}
