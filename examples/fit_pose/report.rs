@@ -45,9 +45,10 @@ pub fn print_fitted(fitted: &Fitted) {
         }
         for (k, run) in r.runs.iter().enumerate() {
             println!(
-                "{check}: restart from leg stride {} / arm swing {}, {} steps, energy {:.3e} → {}, {}",
-                run.starts.leg_stride,
-                run.starts.arm_swing,
+                "{check}: restart from leg stride {} / arm swing {}{}, {} steps, energy {:.3e} → {}, {}",
+                run.family.leg_stride,
+                run.family.arm_swing,
+                if run.family.coarse_proxy { "" } else { " without the coarse proxy" },
                 run.steps(),
                 r.first_energy,
                 energy(run.energy),

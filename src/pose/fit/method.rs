@@ -29,10 +29,11 @@ pub struct Fitted {
     pub restart: Option<RestartReport>,
 }
 
-/// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per camera, values in [0, 1]) by the
-/// recommended method: `E = E_sl + λ·E_spt + μ·E_prior + ν·E_shape` minimised with Adam, coarse to fine,
-/// from several starting poses, each part switchable and every setting in `options`
-/// (`FitOptions::default()` is the method's). `on_step` sees the fit and its [`Progress`] after
+/// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per
+/// camera, values in [0, 1]) by the recommended method: `E = E_sl + λ·E_spt + μ·E_prior +
+/// ν·E_shape` minimised with Adam, coarse to fine, from several starting poses, each part
+/// switchable and every setting in `options` (`FitOptions::default()` is the method's; its
+/// ranges are checked first, [`FitOptions::validate`]). `on_step` sees the fit and its [`Progress`] after
 /// every step; returning [`ControlFlow::Break`] cancels the fit (e.g. from an `AtomicBool` a
 /// user interface sets), which then ends at its current pose with
 /// [`Stop::Cancelled`](super::Stop::Cancelled). When the legs crossed over match the targets

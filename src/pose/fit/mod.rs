@@ -18,8 +18,9 @@
 //!
 //! Plain descent from the rest pose stalls in local minima on a large share of random poses
 //! (16 of seeds 1–30 end more than 20 mm off for the built-in figure at 64², F = 4, 300 steps;
-//! the errors are bimodal: 2.5–7 mm, or 22–71 mm). The stalled fits are not ambiguities the silhouettes cannot decide:
-//! their silhouette error stays 6–50 times that of the converged ones. Their per-joint errors
+//! the errors are bimodal: 2.5–7 mm, or 22–71 mm). The stalled fits are not ambiguities the
+//! silhouettes cannot decide: their silhouette error stays 6–50 times that of the converged
+//! ones. Their per-joint errors
 //! show whole limbs in the wrong place (a wrist or an ankle 30–45 cm off), of two kinds:
 //!
 //! - **No overlap, no gradient.** A limb whose silhouette does not overlap its target in a view
@@ -186,10 +187,11 @@
 //!     the restart above): masks eroded by a pixel leave the forearms a faint line one pixel
 //!     wide, which the descent often misses without a misfit block; the fitted outline
 //!     nuisance tells such masks (−0.96 to −1 where eroded, above −0.05 otherwise), and where
-//!     it ends at or below [`FitOptions::thinned_below`] the whole method runs again from three
-//!     families of starting poses ([`LimbSwing`]) and the lowest energy is kept. On eroded
-//!     masks the body's failures went from 25 to 13 in 60 and the figure's from 23 to 4 in 120,
-//!     at three to four times the time of such a fit.
+//!     it ends at or below [`FitOptions::thinned_below`] the whole method runs again from four
+//!     families ([`RestartFamily`]: three of starting poses, and one of them without the coarse
+//!     proxy) and the lowest energy is kept. On eroded masks the body's failures went from 25
+//!     to 8 in 60 and the figure's from 23 to 3 in 120, at four to five times the time of such
+//!     a fit.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
@@ -220,5 +222,5 @@ pub use inflation::vertex_normals;
 pub use method::{fit, Fitted};
 pub use options::FitOptions;
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
-pub use restart::{misfit_blocks, LimbSwing, RestartReport, RestartRun};
+pub use restart::{misfit_blocks, RestartFamily, RestartReport, RestartRun};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};

@@ -2,7 +2,7 @@
 //! ([`FitOptions::validate`]) and the schedule and starting poses it gives for a model
 //! ([`FitOptions::plan`]).
 
-use super::restart::LimbSwing;
+use super::restart::RestartFamily;
 use super::{limb_swing_hypotheses, Convergence, PoseFit, Schedule, Stage, SwapScreen, SwapTest};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Error, Result};
@@ -16,7 +16,7 @@ pub struct FitOptions {
     pub steps: u32,
     /// Adam's learning rate, > 0. Default 0.02.
     pub learning_rate: f32,
-    /// Self-intersection weight `λ`, ≥ 0. Default 1e-7 ([`FitSettings::lambda`]).
+    /// Self-intersection weight `λ`, ≥ 0. Default 1e-7 ([`FitSettings::lambda`](super::FitSettings::lambda)).
     pub lambda: f32,
     /// Steps between self-intersection checks, ≥ 1 ([`PoseFit::set_intersection_interval`]; the
     /// steps in between reuse the last check's gradient). Default
@@ -121,16 +121,16 @@ pub struct FitOptions {
     /// matches the targets at most this many times worse than the fitted pose where their
     /// renders differ (the squared error over the pixels whose value differs between the two,
     /// each rendered with the fit's outline, the candidate's over the fit's;
-    /// [`CrossedLegsReport::changed_ratio`]), or as the looser rule of
+    /// [`CrossedLegsReport::changed_ratio`](super::CrossedLegsReport::changed_ratio)), or as the looser rule of
     /// [`FitOptions::crossed_legs_loose_within`] allows, the fit refines it
     /// [`FitOptions::swap_steps`] steps as the swap test refines a candidate, runs up to three more
     /// times from it (the stages and the swap test: a second run from starting poses about it, as
     /// the first run, a third from it alone, and, where neither of those ends below the first, a
     /// fourth from the starting poses about it without the coarsest stage;
-    /// [`CrossedRunStart`](super::CrossedRunStart)) and keeps
-    /// whichever ends with the lowest energy
-    /// ([`PoseFit::energy`]; [`CrossedLegsReport::end`]); 0: never (neither rule). Only with
-    /// `fit_pose`, and not after a cancelled run. Default [`FitOptions::CROSSED_LEGS_WITHIN`].
+    /// [`CrossedRunStart`](super::CrossedRunStart)) and keeps whichever ends with the lowest
+    /// energy ([`PoseFit::energy`]; [`CrossedLegsReport::end`](super::CrossedLegsReport::end));
+    /// 0: never (neither rule). Only with `fit_pose`, and not after a cancelled run. Default
+    /// [`FitOptions::CROSSED_LEGS_WITHIN`].
     ///
     /// The descent leaves crossed or close legs in each other's places now and then (the
     /// built-in figure: 4 of seeds 81–130). Refining the candidate a few steps, as the swap test
@@ -150,7 +150,7 @@ pub struct FitOptions {
     /// A looser bound on the same ratio, finite and ≥ 0: the second run runs as well when the
     /// ratio is at most this and the crossed pose's squared error exceeds the fitted pose's by
     /// at most [`FitOptions::crossed_legs_excess`] per changed pixel
-    /// ([`CrossedLegsReport::changed_excess`]). Default
+    /// ([`CrossedLegsReport::changed_excess`](super::CrossedLegsReport::changed_excess)). Default
     /// [`FitOptions::CROSSED_LEGS_LOOSE_WITHIN`].
     ///
     /// Noise among the changed pixels adds to both sides of the ratio and pulls it towards 1, so
@@ -162,8 +162,9 @@ pub struct FitOptions {
     /// truth (p90 11.2 → 9.4 mm); its flipped masks in 11 of seeds 31–70 instead of 7, and the
     /// MakeHuman body's fits in none more (their excess is 0.12 or more).
     pub crossed_legs_loose_within: f64,
-    /// The largest excess per changed pixel ([`CrossedLegsReport::changed_excess`]) with which
-    /// a ratio up to [`FitOptions::crossed_legs_loose_within`] runs the second run, finite and
+    /// The largest excess per changed pixel
+    /// ([`CrossedLegsReport::changed_excess`](super::CrossedLegsReport::changed_excess)) with
+    /// which a ratio up to [`FitOptions::crossed_legs_loose_within`] runs the second run, finite and
     /// ≥ 0; 0: only [`FitOptions::crossed_legs_within`] decides. Default
     /// [`FitOptions::CROSSED_LEGS_EXCESS`].
     pub crossed_legs_excess: f64,
@@ -211,7 +212,7 @@ pub struct FitOptions {
     /// pixels wide ([`misfit_blocks`](super::misfit_blocks) not all 0), [`fit`](super::fit) runs the whole
     /// method once more from the initial pose with the arms also swung forward and back by this
     /// much, and ends at whichever of the two ends with the lower energy
-    /// ([`Fitted::restart`]); where the targets look thinned, [`FitOptions::thinned_restarts`]
+    /// ([`Fitted::restart`](super::Fitted::restart)); where the targets look thinned, [`FitOptions::thinned_restarts`]
     /// run instead. Default [`FitOptions::RESTART_ARM_SWING`].
     ///
     /// The failures left after the first pass are descent failures (the true pose's energy a
@@ -228,9 +229,10 @@ pub struct FitOptions {
     /// masks eroded by a pixel end the first pass at −0.96 to −1, exact and flipped ones at
     /// −0.03 to +0.04, dilated ones at +0.99 or above (`docs/pose-fit-evaluation.md`).
     pub thinned_below: f32,
-    /// The families of starting poses the whole method runs again from, one after the other,
-    /// where the targets look thinned ([`FitOptions::thinned_below`]), the fit ending at the
-    /// lowest energy ([`Fitted::restart`]); empty: none. Default
+    /// The families the whole method runs again from, one after the other, where the targets
+    /// look thinned ([`FitOptions::thinned_below`]): each its starting poses, and with or
+    /// without the coarse proxy ([`RestartFamily`]); the fit ends at the lowest energy
+    /// ([`Fitted::restart`](super::Fitted::restart)); empty: none. Default
     /// [`FitOptions::THINNED_RESTARTS`].
     ///
     /// Masks thinner than the body (a pixel eroded) leave the forearms, and now and then a
@@ -238,10 +240,12 @@ pub struct FitOptions {
     /// so the descent ends with it elsewhere (the true pose's energy still lower), without a
     /// misfit block that would restart it. Which start reaches the true pose's basin varies
     /// from fit to fit, so several families are tried and the energy picks. On masks eroded by
-    /// a pixel this took the MakeHuman body's failures from 25 to 13 in 60 fits and the built-in
-    /// figure's from 23 to 4 in 120 (held-out seeds among them; one fit became a failure), a thinned fit taking three to
-    /// four times as long; no fit on exact, dilated or flipped masks counted as thinned.
-    pub thinned_restarts: Vec<LimbSwing>,
+    /// a pixel the first three families took the MakeHuman body's failures from 25 to 13 in 60
+    /// fits and the built-in figure's from 23 to 4 in 120 (one fit became a failure); the fourth,
+    /// off the proxy, from 13 to 8 and from 4 to 3 (none became one). A thinned fit runs the
+    /// method five times, about four to five times as long as one that is not; no fit on exact,
+    /// dilated or flipped masks counted as thinned (`docs/pose-fit-evaluation.md`).
+    pub thinned_restarts: Vec<RestartFamily>,
 }
 
 impl Default for FitOptions {
@@ -313,11 +317,14 @@ impl FitOptions {
 
     /// Default restarts where the targets look thinned ([`FitOptions::thinned_restarts`]): the
     /// arms swung by 0.4 rad (the misfit restart's), the legs' stride widened from 0.3 to 0.5
-    /// rad, and the arms swung by 0.7 rad.
-    pub const THINNED_RESTARTS: [LimbSwing; 3] = [
-        LimbSwing { leg_stride: 0.3, arm_swing: 0.4 },
-        LimbSwing { leg_stride: 0.5, arm_swing: 0.0 },
-        LimbSwing { leg_stride: 0.3, arm_swing: 0.7 },
+    /// rad, the arms swung by 0.7 rad, and the arms swung by 0.4 rad again with the whole mesh
+    /// at the coarsest blur instead of the coarse proxy (whose clustered outline is not the
+    /// mesh's: a fit of eroded masks started at the true pose stays there only without it).
+    pub const THINNED_RESTARTS: [RestartFamily; 4] = [
+        RestartFamily::swing(0.3, 0.4),
+        RestartFamily::swing(0.5, 0.0),
+        RestartFamily::swing(0.3, 0.7),
+        RestartFamily { leg_stride: 0.3, arm_swing: 0.4, coarse_proxy: false },
     ];
 
     /// Default steps of the limb swap test ([`FitOptions::swap_steps`]).

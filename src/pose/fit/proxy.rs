@@ -190,6 +190,17 @@ impl PoseFit {
         Ok(self.proxy.as_ref().map_or((0, 0), |p| (p.vertex_count(), p.triangle_count())))
     }
 
+    /// Takes the coarse proxy out, so that every step renders the whole mesh until it is put
+    /// back ([`PoseFit::put_coarse_proxy`]); `None` where none is set.
+    pub(in crate::pose::fit) fn take_coarse_proxy(&mut self) -> Option<Proxy> {
+        self.proxy.take()
+    }
+
+    /// Puts back a proxy taken out with [`PoseFit::take_coarse_proxy`].
+    pub(in crate::pose::fit) fn put_coarse_proxy(&mut self, proxy: Option<Proxy>) {
+        self.proxy = proxy;
+    }
+
     /// Whether the next step renders the proxy: one is set and the blur is on and at least the
     /// proxy's least blur.
     pub(super) fn proxy_in_use(&self) -> bool {

@@ -55,17 +55,28 @@ pub fn misfit_blocks(renders: &[Image], targets: &[Image]) -> Result<Vec<u32>> {
         .collect()
 }
 
-/// A family of starting poses ([`limb_swing_hypotheses`](super::limb_swing_hypotheses)): the
-/// legs' stride and the arms' swing, in radians, both finite and ≥ 0.
+/// How a restart runs the method again: its family of starting poses
+/// ([`limb_swing_hypotheses`](super::limb_swing_hypotheses): the legs' stride and the arms'
+/// swing, in radians, both finite and ≥ 0) and whether its coarsest steps render the coarse
+/// proxy as the first pass's do.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LimbSwing {
+pub struct RestartFamily {
     /// Leg stride of the extra starting poses ([`FitOptions::leg_stride`]).
     pub leg_stride: f32,
     /// Arm swing of the extra starting poses ([`FitOptions::arm_swing`]).
     pub arm_swing: f32,
+    /// Whether the steps at the coarsest blur render the coarse proxy of
+    /// [`FitOptions::coarse_proxy`] (where that is not 0); false: the whole mesh, as a fit with
+    /// `coarse_proxy` 0 would.
+    pub coarse_proxy: bool,
 }
 
-impl LimbSwing {
+impl RestartFamily {
+    /// The family with this leg stride and arm swing, on the fit's coarse proxy.
+    pub const fn swing(leg_stride: f32, arm_swing: f32) -> RestartFamily {
+        RestartFamily { leg_stride, arm_swing, coarse_proxy: true }
+    }
+
     /// Errors ([`Error::InvalidSettings`]) where either angle is not finite or is negative.
     pub fn validate(&self) -> Result<()> {
         if [self.leg_stride, self.arm_swing].iter().all(|a| a.is_finite() && *a >= 0.0) {
@@ -104,8 +115,8 @@ pub struct RestartReport {
 /// The method run again from other starting poses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RestartRun {
-    /// The family of starting poses it ran from.
-    pub starts: LimbSwing,
+    /// The family it ran from.
+    pub family: RestartFamily,
     /// The run's report; its steps follow the first pass's (and the earlier restarts') in the
     /// callback's [`Progress`].
     pub report: RunReport,
@@ -152,36 +163,49 @@ pub(super) fn restart_where_misfit(
     let families = if thinned && !options.thinned_restarts.is_empty() {
         options.thinned_restarts.clone()
     } else if misfit_blocks.iter().any(|&b| b > 0) && options.restart_arm_swing > 0.0 {
-        vec![LimbSwing { leg_stride: options.leg_stride, arm_swing: options.restart_arm_swing }]
+        vec![RestartFamily::swing(options.leg_stride, options.restart_arm_swing)]
     } else {
         Vec::new()
     };
     let mut outcome = RestartReport { misfit_blocks, thinned, first_energy, runs: Vec::new(), kept: None };
     let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
-    let mut tried = vec![first_starts.to_vec()];
+    // The starting poses run so far, each with whether its coarsest steps rendered the proxy.
+    let proxy_set = options.coarse_proxy > 0.0;
+    let mut tried = vec![(first_starts.to_vec(), proxy_set)];
     // The lowest end so far among the restarts: its energy, its state and outline rate.
     let mut lowest: Option<(f64, FitState, f32)> = None;
     let mut steps = first_steps;
-    for starts_family in families {
-        let restarted =
-            FitOptions { leg_stride: starts_family.leg_stride, arm_swing: starts_family.arm_swing, ..options.clone() };
+    for family in families {
+        let restarted = FitOptions {
+            leg_stride: family.leg_stride,
+            arm_swing: family.arm_swing,
+            coarse_proxy: if family.coarse_proxy { options.coarse_proxy } else { 0.0 },
+            ..options.clone()
+        };
         let (schedule, starts) = restarted.plan(fit.model())?;
-        if tried.contains(&starts) {
-            // The same starting poses would end where the first pass or that restart did.
+        let with_proxy = proxy_set && family.coarse_proxy;
+        if tried.iter().any(|(s, p)| *s == starts && *p == with_proxy) {
+            // The same starting poses on the same mesh would end where that run did.
             continue;
         }
-        tried.push(starts.clone());
+        tried.push((starts.clone(), with_proxy));
         if options.fit_outline {
             fit.set_outline_rate(outline_rate)?;
         }
         let offset = steps;
         let mut callback =
             |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-        let pass = run_pass(fit, &restarted, &schedule, &starts, outline_rate, &mut callback)?;
+        // A family off the proxy runs on the whole mesh; the proxy is put back after it.
+        let taken = (!with_proxy).then(|| fit.take_coarse_proxy());
+        let pass = run_pass(fit, &restarted, &schedule, &starts, outline_rate, &mut callback);
+        if let Some(proxy) = taken {
+            fit.put_coarse_proxy(proxy);
+        }
+        let pass = pass?;
         let cancelled = pass.cancelled();
         let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
         let Pass { report, swap, crossed_legs } = pass;
-        let run = RestartRun { starts: starts_family, report, swap, crossed_legs, energy };
+        let run = RestartRun { family, report, swap, crossed_legs, energy };
         steps += run.steps();
         if let Some(e) = energy {
             if e < lowest.as_ref().map_or(first_energy, |l| l.0) {

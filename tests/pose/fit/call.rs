@@ -189,7 +189,7 @@ fn a_hip_joint_at_the_pelvis_stands_for_its_thigh() {
 
 #[test]
 fn options_out_of_range_are_errors_without_a_model() {
-    use diffsil::pose::fit::{LimbSwing, SwapScreen};
+    use diffsil::pose::fit::{RestartFamily, SwapScreen};
     use diffsil::Error;
     assert!(FitOptions::default().validate().is_ok());
     let d = FitOptions::default;
@@ -211,10 +211,7 @@ fn options_out_of_range_are_errors_without_a_model() {
         ("head turn bound", FitOptions { head_turn_below: -0.5, ..d() }),
         ("restart arm swing", FitOptions { restart_arm_swing: -0.4, ..d() }),
         ("thinned bound", FitOptions { thinned_below: f32::NAN, ..d() }),
-        (
-            "thinned family",
-            FitOptions { thinned_restarts: vec![LimbSwing { leg_stride: 0.3, arm_swing: f32::NAN }], ..d() },
-        ),
+        ("thinned family", FitOptions { thinned_restarts: vec![RestartFamily::swing(0.3, f32::NAN)], ..d() }),
     ];
     let figure = builtin_figure();
     for (what, options) in cases {

@@ -7,7 +7,7 @@
 use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, LimbSwing, PoseFit, Stop};
+use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, RestartFamily, Stop};
 use diffsil::pose::skin::SkinnedMesh;
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
 
@@ -95,7 +95,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     assert!(!restart.thinned, "exact masks: {restart:?}");
     assert_eq!(restart.runs.len(), 1, "the arms swung alone: {restart:?}");
     let run = &restart.runs[0];
-    assert_eq!(run.starts, LimbSwing { leg_stride: 0.3, arm_swing: FitOptions::RESTART_ARM_SWING });
+    assert_eq!(run.family, RestartFamily::swing(0.3, FitOptions::RESTART_ARM_SWING));
     assert_eq!(fitted.report.steps + run.steps(), last_step);
     let end = run.energy.expect("not cancelled");
     assert_eq!(restart.kept, (end < restart.first_energy).then_some(0));
@@ -225,8 +225,8 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     .unwrap();
     let restart = fitted.restart.clone().expect("looked at");
     assert!(restart.thinned, "eroded targets: outline {} ({restart:?})", fitted.fit.outline());
-    let starts: Vec<LimbSwing> = restart.runs.iter().map(|r| r.starts).collect();
-    assert_eq!(starts, FitOptions::THINNED_RESTARTS.to_vec(), "every family, in order");
+    let families: Vec<RestartFamily> = restart.runs.iter().map(|r| r.family).collect();
+    assert_eq!(families, FitOptions::THINNED_RESTARTS.to_vec(), "every family, in order");
     assert_eq!(fitted.report.steps + restart.steps(), last_step);
     let energies: Vec<f64> = restart.runs.iter().map(|r| r.energy.expect("not cancelled")).collect();
     let lowest = energies.iter().copied().fold(restart.first_energy, f64::min);
@@ -238,6 +238,7 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
         let alone = FitOptions {
             leg_stride: family.leg_stride,
             arm_swing: family.arm_swing,
+            coarse_proxy: if family.coarse_proxy { options.coarse_proxy } else { 0.0 },
             restart_arm_swing: 0.0,
             thinned_restarts: Vec::new(),
             ..options.clone()
@@ -251,13 +252,21 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     let without = without.restart.expect("looked at");
     assert_eq!(without.first_energy, restart.first_energy);
     assert!(without.runs.len() <= 1, "{without:?}");
-    // A family that repeats the first run's starting poses or an earlier family's is skipped.
-    let first_run = LimbSwing { leg_stride: options.leg_stride, arm_swing: options.arm_swing };
-    let twice = FitOptions { thinned_restarts: vec![first_run, starts[1], starts[1]], ..options.clone() };
+    // A family that repeats the first run's starting poses or an earlier family's on the same
+    // mesh is skipped; the first run's starting poses without the coarse proxy are not.
+    let first_run = RestartFamily::swing(options.leg_stride, options.arm_swing);
+    let first_run_whole = RestartFamily { coarse_proxy: false, ..first_run };
+    let repeated = vec![first_run, first_run_whole, families[1], families[1]];
+    let twice = FitOptions { thinned_restarts: repeated, ..options.clone() };
     let once = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &twice, go_on).unwrap();
     let once = once.restart.expect("looked at");
-    assert_eq!(once.runs.iter().map(|r| r.starts).collect::<Vec<_>>(), vec![starts[1]]);
-    assert_eq!(once.runs[0].energy, restart.runs[1].energy);
+    assert_eq!(once.runs.iter().map(|r| r.family).collect::<Vec<_>>(), vec![first_run_whole, families[1]]);
+    // The proxy is back after the family off it: the next family ends as it did above.
+    assert_eq!(once.runs[1].energy, restart.runs[1].energy);
+    // Without a coarse proxy in the options, a family off the proxy is the same run as on it.
+    let no_proxy = FitOptions { coarse_proxy: 0.0, thinned_restarts: vec![first_run_whole], ..options.clone() };
+    let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &no_proxy, go_on).unwrap();
+    assert!(none.restart.expect("looked at").runs.is_empty(), "the first run's again: skipped");
 }
 
 #[test]
@@ -267,7 +276,7 @@ fn the_thinned_bound_decides_and_bad_families_are_errors_before_any_step() {
     let options = FitOptions { thinned_below: 1.0, restart_arm_swing: 0.0, ..thinned_options() };
     let fitted = fit(model.clone(), cameras.clone(), exact.clone(), renderer(), &options, go_on).unwrap();
     let restart = fitted.restart.expect("looked at");
-    assert!(restart.thinned && restart.runs.len() == 3, "{restart:?}");
+    assert!(restart.thinned && restart.runs.len() == FitOptions::THINNED_RESTARTS.len(), "{restart:?}");
     // ... and eroded ones do not when it is below −1.
     let options = FitOptions { thinned_below: -1.5, restart_arm_swing: 0.0, ..thinned_options() };
     let fitted = fit(model.clone(), cameras.clone(), eroded(&exact), renderer(), &options, go_on).unwrap();
@@ -278,9 +287,9 @@ fn the_thinned_bound_decides_and_bad_families_are_errors_before_any_step() {
     let fitted = fit(model.clone(), cameras.clone(), eroded(&exact), renderer(), &options, go_on).unwrap();
     assert!(!fitted.restart.expect("looked at").thinned);
     let bad_families = [
-        LimbSwing { leg_stride: f32::NAN, arm_swing: 0.4 },
-        LimbSwing { leg_stride: 0.3, arm_swing: -0.1 },
-        LimbSwing { leg_stride: f32::INFINITY, arm_swing: 0.0 },
+        RestartFamily::swing(f32::NAN, 0.4),
+        RestartFamily::swing(0.3, -0.1),
+        RestartFamily { leg_stride: f32::INFINITY, arm_swing: 0.0, coarse_proxy: false },
     ];
     let bad_options = bad_families
         .into_iter()
