@@ -72,7 +72,7 @@ pub fn fit(
     options: &FitOptions,
     on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
 ) -> Result<Fitted> {
-    options.validate()?;
+    // `plan` checks the options first (`FitOptions::validate`).
     let (schedule, hypotheses) = options.plan(&model)?;
     let (low, high) = model
         .mesh

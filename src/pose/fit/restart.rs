@@ -169,8 +169,9 @@ pub(super) fn restart_where_misfit(
     };
     let mut outcome = RestartReport { misfit_blocks, thinned, first_energy, runs: Vec::new(), kept: None };
     let (first, first_outline_rate) = (fit.state(), fit.outline_rate());
-    // The starting poses run so far, each with whether its coarsest steps rendered the proxy.
-    let proxy_set = options.coarse_proxy > 0.0;
+    // The starting poses run so far, each with whether its coarsest steps rendered the proxy
+    // (never without blur).
+    let proxy_set = options.coarse_proxy > 0.0 && options.coarse_blur > 0.0;
     let mut tried = vec![(first_starts.to_vec(), proxy_set)];
     // The lowest end so far among the restarts: its energy, its state and outline rate.
     let mut lowest: Option<(f64, FitState, f32)> = None;

@@ -267,6 +267,17 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     let no_proxy = FitOptions { coarse_proxy: 0.0, thinned_restarts: vec![first_run_whole], ..options.clone() };
     let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &no_proxy, go_on).unwrap();
     assert!(none.restart.expect("looked at").runs.is_empty(), "the first run's again: skipped");
+    // Nor without blur, whose steps never render the proxy (and whose only start is the initial
+    // pose, whatever the swing).
+    let unblurred = FitOptions {
+        coarse_blur: 0.0,
+        thinned_below: 1.0,
+        thinned_restarts: vec![RestartFamily { arm_swing: 0.4, ..first_run_whole }],
+        ..options.clone()
+    };
+    let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unblurred, go_on).unwrap();
+    let none = none.restart.expect("looked at");
+    assert!(none.thinned && none.runs.is_empty(), "{none:?}");
 }
 
 #[test]
