@@ -3,7 +3,7 @@
 use std::ops::ControlFlow;
 
 use super::pass::{run_pass, Pass};
-use super::restart::{restart_where_misfit, RestartReport};
+use super::restart::{restarts_after_first_pass, RestartReport};
 use super::{CrossedLegsReport, FitOptions, FitSettings, Free, PoseFit, Progress, RunReport, SwapReport};
 use crate::pose::skin::SkinnedMesh;
 use crate::{Camera, Image, Renderer, Result};
@@ -107,7 +107,7 @@ pub fn fit(
     let first = run_pass(&mut fit, options, &schedule, &hypotheses, outline_rate, &mut on_step)?;
     let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty();
     let restart = if options.fit_pose && restarts && !first.cancelled() {
-        Some(restart_where_misfit(&mut fit, options, &hypotheses, first.steps(), outline_rate, &mut on_step)?)
+        Some(restarts_after_first_pass(&mut fit, options, &hypotheses, first.steps(), outline_rate, &mut on_step)?)
     } else {
         None
     };

@@ -147,9 +147,9 @@ impl RestartReport {
 /// ([`FitOptions::thinned_below`]), the method again from each family of
 /// [`FitOptions::thinned_restarts`]; otherwise, where the fit misses a piece of its targets,
 /// from the arms swung by [`FitOptions::restart_arm_swing`]. A family whose starting poses are
-/// the first run's or an earlier restart's is skipped; the fit is left at the lowest end, and a
-/// cancelled restart ends the restarts.
-pub(super) fn restart_where_misfit(
+/// the first run's or an earlier restart's, on the same mesh (the coarse proxy or not), is
+/// skipped; the fit is left at the lowest end, and a cancelled restart ends the restarts.
+pub(super) fn restarts_after_first_pass(
     fit: &mut PoseFit,
     options: &FitOptions,
     first_starts: &[Pose],
