@@ -19,6 +19,7 @@ mod nuisance;
 // The pose and shape priors, in their own file.
 #[path = "priors.rs"]
 mod priors;
+pub(in crate::pose::fit) use priors::check_shape_prior;
 // E_sl: renders against the blurred targets, in its own file.
 #[path = "silhouette.rs"]
 mod silhouette;
@@ -212,11 +213,7 @@ impl PoseFit {
             camera.validate()?;
             target.expect_size("target silhouette", camera.width, camera.height)?;
         }
-        if !(learning_rate.is_finite() && learning_rate > 0.0 && lambda.is_finite() && lambda >= 0.0) {
-            return Err(Error::InvalidSettings(format!(
-                "need a positive learning rate and a non-negative λ, got {learning_rate} and {lambda}"
-            )));
-        }
+        check_rate_and_lambda(learning_rate, lambda)?;
         initial.validate(model.joint_count())?;
         let checker = SelfIntersectionChecker::new(model.mesh.topology());
         let mesh = model.mesh.clone();
@@ -341,9 +338,7 @@ impl PoseFit {
     /// next step; [`PoseFit::set_state`] restores the check the state was taken with (each
     /// hypothesis keeps its own). Errors on 0.
     pub fn set_intersection_interval(&mut self, interval: u32) -> Result<()> {
-        if interval == 0 {
-            return Err(Error::InvalidSettings("the self-intersection interval must be at least 1 step".into()));
-        }
+        check_intersection_interval(interval)?;
         self.intersection_interval = interval;
         Ok(())
     }
@@ -574,4 +569,25 @@ impl std::fmt::Debug for PoseFit {
             .field("inflation_rate", &self.inflation_rate)
             .finish_non_exhaustive()
     }
+}
+
+/// Errors ([`Error::InvalidSettings`]) unless `learning_rate` is finite and > 0 and `lambda` is
+/// finite and ≥ 0 ([`PoseFit::new`], [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_rate_and_lambda(learning_rate: f32, lambda: f32) -> Result<()> {
+    if learning_rate.is_finite() && learning_rate > 0.0 && lambda.is_finite() && lambda >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!(
+            "need a positive learning rate and a non-negative λ, got {learning_rate} and {lambda}"
+        )))
+    }
+}
+
+/// Errors ([`Error::InvalidSettings`]) on an interval of 0 steps
+/// ([`PoseFit::set_intersection_interval`], [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_intersection_interval(interval: u32) -> Result<()> {
+    if interval == 0 {
+        return Err(Error::InvalidSettings("the self-intersection interval must be at least 1 step".into()));
+    }
+    Ok(())
 }

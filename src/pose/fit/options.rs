@@ -2,6 +2,7 @@
 //! ([`FitOptions::validate`]) and the schedule and starting poses it gives for a model
 //! ([`FitOptions::plan`]).
 
+use super::descent::{check_intersection_interval, check_rate_and_lambda, check_shape_prior};
 use super::restart::RestartFamily;
 use super::{limb_swing_hypotheses, Convergence, PoseFit, Schedule, Stage, SwapScreen, SwapTest};
 use crate::pose::skin::{Pose, SkinnedMesh};
@@ -356,12 +357,14 @@ impl FitOptions {
     }
 
     /// Errors ([`Error::InvalidSettings`]) where a setting is outside the range its field's
-    /// documentation gives: the weights, bounds, rates, angles and blur that [`fit`](super::fit) reads
-    /// itself, before any model is loaded. Not looked at here: what [`PoseFit`] checks where the
-    /// fit is built (`learning_rate`, `lambda`, `intersection_interval`, `shape_prior`, and
-    /// `initial_shape` against the model), and `initial` against the model
-    /// ([`FitOptions::plan`]). [`fit`](super::fit) and [`FitOptions::plan`] call it first.
+    /// documentation gives (the same checks [`PoseFit`]'s setters make), before any model is
+    /// loaded. What needs the model is checked where it is known: `initial_shape`'s length
+    /// ([`PoseFit::new`]) and `initial`'s joint count ([`FitOptions::plan`]).
+    /// [`fit`](super::fit) and [`FitOptions::plan`] call it first.
     pub fn validate(&self) -> Result<()> {
+        check_rate_and_lambda(self.learning_rate, self.lambda)?;
+        check_intersection_interval(self.intersection_interval)?;
+        check_shape_prior(self.shape_prior)?;
         if !(self.pose_prior.is_finite() && self.pose_prior >= 0.0) {
             return Err(Error::InvalidSettings(format!("need a non-negative pose prior, got {}", self.pose_prior)));
         }

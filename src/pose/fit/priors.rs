@@ -46,9 +46,7 @@ impl PoseFit {
     /// shape (morph targets are authored so that ±1 is an extreme body). 0 unless set; the
     /// method's value is [`PoseFit::SHAPE_PRIOR`]. Errors on a negative or non-finite weight.
     pub fn set_shape_prior(&mut self, weight: f32) -> Result<()> {
-        if !(weight.is_finite() && weight >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative shape prior weight, got {weight}")));
-        }
+        check_shape_prior(weight)?;
         self.shape_prior = weight;
         Ok(())
     }
@@ -76,5 +74,15 @@ impl PoseFit {
                 *g += scale * t;
             }
         }
+    }
+}
+
+/// Errors ([`Error::InvalidSettings`]) on a negative or non-finite shape prior weight
+/// ([`PoseFit::set_shape_prior`], [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_shape_prior(weight: f32) -> Result<()> {
+    if weight.is_finite() && weight >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!("need a non-negative shape prior weight, got {weight}")))
     }
 }

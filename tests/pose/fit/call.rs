@@ -194,6 +194,10 @@ fn options_out_of_range_are_errors_without_a_model() {
     assert!(FitOptions::default().validate().is_ok());
     let d = FitOptions::default;
     let cases = [
+        ("learning rate", FitOptions { learning_rate: 0.0, ..d() }),
+        ("lambda", FitOptions { lambda: f32::NAN, ..d() }),
+        ("intersection interval", FitOptions { intersection_interval: 0, ..d() }),
+        ("shape prior", FitOptions { shape_prior: -1.0, ..d() }),
         ("pose prior", FitOptions { pose_prior: -1.0, ..d() }),
         ("coarse proxy", FitOptions { coarse_proxy: f32::NAN, ..d() }),
         ("coarse blur", FitOptions { coarse_blur: 1.5, ..d() }),
