@@ -264,9 +264,15 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     // The proxy is back after the family off it: the next family ends as it did above.
     assert_eq!(once.runs[1].energy, restart.runs[1].energy);
     // Without a coarse proxy in the options, a family off the proxy is the same run as on it.
-    let no_proxy = FitOptions { coarse_proxy: 0.0, thinned_restarts: vec![first_run_whole], ..options.clone() };
+    let no_proxy = FitOptions {
+        coarse_proxy: 0.0,
+        thinned_below: 1.0,
+        thinned_restarts: vec![first_run_whole],
+        ..options.clone()
+    };
     let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &no_proxy, go_on).unwrap();
-    assert!(none.restart.expect("looked at").runs.is_empty(), "the first run's again: skipped");
+    let none = none.restart.expect("looked at");
+    assert!(none.thinned && none.runs.is_empty(), "the first run's again, skipped: {none:?}");
     // Nor without blur, whose steps never render the proxy (and whose only start is the initial
     // pose, whatever the swing).
     let unblurred = FitOptions {
