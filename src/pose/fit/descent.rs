@@ -19,7 +19,7 @@ mod nuisance;
 // The pose and shape priors, in their own file.
 #[path = "priors.rs"]
 mod priors;
-pub(in crate::pose::fit) use priors::check_shape_prior;
+pub(in crate::pose::fit) use priors::check_prior_weight;
 // E_sl: renders against the blurred targets, in its own file.
 #[path = "silhouette.rs"]
 mod silhouette;
@@ -362,11 +362,7 @@ impl PoseFit {
     /// backward visits every visible contour segment rather than only those in disagreeing
     /// pixels.
     pub fn set_blur(&mut self, fraction: f32) -> Result<()> {
-        if !(fraction.is_finite() && (0.0..=1.0).contains(&fraction)) {
-            return Err(Error::InvalidSettings(format!(
-                "blur {fraction}: use a fraction of the image height in [0, 1]"
-            )));
-        }
+        check_blur("blur", fraction)?;
         if fraction == self.blur {
             return Ok(());
         }
@@ -590,4 +586,15 @@ pub(in crate::pose::fit) fn check_intersection_interval(interval: u32) -> Result
         return Err(Error::InvalidSettings("the self-intersection interval must be at least 1 step".into()));
     }
     Ok(())
+}
+
+/// Errors ([`Error::InvalidSettings`]) unless the blur `fraction` (of the image height; `what`
+/// names it in the message) is finite and in [0, 1] ([`PoseFit::set_blur`],
+/// [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_blur(what: &str, fraction: f32) -> Result<()> {
+    if fraction.is_finite() && (0.0..=1.0).contains(&fraction) {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!("{what} {fraction}: use a fraction of the image height in [0, 1]")))
+    }
 }

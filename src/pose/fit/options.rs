@@ -2,8 +2,9 @@
 //! ([`FitOptions::validate`]) and the schedule and starting poses it gives for a model
 //! ([`FitOptions::plan`]).
 
-use super::descent::{check_intersection_interval, check_rate_and_lambda, check_shape_prior};
+use super::descent::{check_blur, check_intersection_interval, check_prior_weight, check_rate_and_lambda};
 use super::restart::RestartFamily;
+use super::schedule::{check_outline_settle, check_prior_scale};
 use super::{limb_swing_hypotheses, Convergence, PoseFit, Schedule, Stage, SwapScreen, SwapTest};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Error, Result};
@@ -364,34 +365,17 @@ impl FitOptions {
     pub fn validate(&self) -> Result<()> {
         check_rate_and_lambda(self.learning_rate, self.lambda)?;
         check_intersection_interval(self.intersection_interval)?;
-        check_shape_prior(self.shape_prior)?;
-        if !(self.pose_prior.is_finite() && self.pose_prior >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative pose prior, got {}", self.pose_prior)));
-        }
+        check_prior_weight("shape", self.shape_prior)?;
+        check_prior_weight("pose", self.pose_prior)?;
         if !(self.coarse_proxy.is_finite() && self.coarse_proxy >= 0.0) {
             return Err(Error::InvalidSettings(format!(
                 "coarse proxy cell {}: use a fraction of the model's height ≥ 0",
                 self.coarse_proxy
             )));
         }
-        if !(self.coarse_blur.is_finite() && (0.0..=1.0).contains(&self.coarse_blur)) {
-            return Err(Error::InvalidSettings(format!(
-                "coarse blur {}: use a fraction of the image height in [0, 1]",
-                self.coarse_blur
-            )));
-        }
-        if !(self.coarse_prior_scale.is_finite() && self.coarse_prior_scale >= 0.0) {
-            return Err(Error::InvalidSettings(format!(
-                "need a non-negative coarse prior scale, got {}",
-                self.coarse_prior_scale
-            )));
-        }
-        if !(self.outline_settle.is_finite() && self.outline_settle >= 0.0) {
-            return Err(Error::InvalidSettings(format!(
-                "need a finite, non-negative outline settle, got {}",
-                self.outline_settle
-            )));
-        }
+        check_blur("coarse blur", self.coarse_blur)?;
+        check_prior_scale(self.coarse_prior_scale)?;
+        check_outline_settle(self.outline_settle)?;
         if !(self.leg_stride.is_finite() && self.arm_swing.is_finite()) {
             return Err(Error::InvalidSettings("the leg stride and arm swing must be finite".into()));
         }

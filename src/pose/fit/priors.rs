@@ -17,9 +17,7 @@ impl PoseFit {
     /// silhouettes say otherwise, and hands a rotation of the whole body from the root joint to the
     /// global orientation, which it does not penalise.
     pub fn set_pose_prior(&mut self, weight: f32) -> Result<()> {
-        if !(weight.is_finite() && weight >= 0.0) {
-            return Err(Error::InvalidSettings(format!("need a non-negative pose prior weight, got {weight}")));
-        }
+        check_prior_weight("pose", weight)?;
         self.pose_prior = weight;
         Ok(())
     }
@@ -46,7 +44,7 @@ impl PoseFit {
     /// shape (morph targets are authored so that ±1 is an extreme body). 0 unless set; the
     /// method's value is [`PoseFit::SHAPE_PRIOR`]. Errors on a negative or non-finite weight.
     pub fn set_shape_prior(&mut self, weight: f32) -> Result<()> {
-        check_shape_prior(weight)?;
+        check_prior_weight("shape", weight)?;
         self.shape_prior = weight;
         Ok(())
     }
@@ -77,12 +75,13 @@ impl PoseFit {
     }
 }
 
-/// Errors ([`Error::InvalidSettings`]) on a negative or non-finite shape prior weight
-/// ([`PoseFit::set_shape_prior`], [`FitOptions::validate`](super::FitOptions::validate)).
-pub(in crate::pose::fit) fn check_shape_prior(weight: f32) -> Result<()> {
+/// Errors ([`Error::InvalidSettings`]) on a negative or non-finite weight of the `which`
+/// ("pose" or "shape") prior ([`PoseFit::set_pose_prior`], [`PoseFit::set_shape_prior`],
+/// [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_prior_weight(which: &str, weight: f32) -> Result<()> {
     if weight.is_finite() && weight >= 0.0 {
         Ok(())
     } else {
-        Err(Error::InvalidSettings(format!("need a non-negative shape prior weight, got {weight}")))
+        Err(Error::InvalidSettings(format!("need a non-negative {which} prior weight, got {weight}")))
     }
 }

@@ -197,15 +197,11 @@ impl PoseFit {
         hypotheses: &[Pose],
         on_step: impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
     ) -> Result<RunReport> {
-        if let Some(stage) = schedule.stages.iter().find(|s| !(s.prior_scale.is_finite() && s.prior_scale >= 0.0)) {
-            return Err(Error::InvalidSettings(format!("need a non-negative prior scale, got {}", stage.prior_scale)));
+        for stage in &schedule.stages {
+            check_prior_scale(stage.prior_scale)?;
         }
-        if let Some(stage) = schedule.stages.iter().find(|s| !(s.outline_settle.is_finite() && s.outline_settle >= 0.0))
-        {
-            return Err(Error::InvalidSettings(format!(
-                "need a finite, non-negative outline settle, got {}",
-                stage.outline_settle
-            )));
+        for stage in &schedule.stages {
+            check_outline_settle(stage.outline_settle)?;
         }
         let result = self.run_schedule(schedule, hypotheses, on_step);
         if result.is_err() {
@@ -292,5 +288,25 @@ impl PoseFit {
         self.set_prior_scale(1.0);
         let energy = self.energy()?;
         Ok(RunReport { steps, hypothesis_energies, chosen, energy, stop })
+    }
+}
+
+/// Errors ([`Error::InvalidSettings`]) on a negative or non-finite [`Stage::prior_scale`]
+/// ([`PoseFit::run`], [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_prior_scale(scale: f32) -> Result<()> {
+    if scale.is_finite() && scale >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!("need a non-negative prior scale, got {scale}")))
+    }
+}
+
+/// Errors ([`Error::InvalidSettings`]) on a negative or non-finite [`Stage::outline_settle`]
+/// ([`PoseFit::run`], [`FitOptions::validate`](super::FitOptions::validate)).
+pub(in crate::pose::fit) fn check_outline_settle(settle: f32) -> Result<()> {
+    if settle.is_finite() && settle >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidSettings(format!("need a finite, non-negative outline settle, got {settle}")))
     }
 }
