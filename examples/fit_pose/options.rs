@@ -130,6 +130,10 @@ pub struct Options {
     /// outline nuisance at or below −0.5, masks eroded by a pixel)
     #[arg(long)]
     pub no_thinned_restarts: bool,
+    /// No last run from the lowest end where the targets look thinned
+    /// (FitOptions::thinned_final_run)
+    #[arg(long)]
+    pub no_thinned_final_run: bool,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -273,6 +277,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
             crossed_legs_within: 0.0,
             restart_arm_swing: 0.0,
             thinned_restarts: Vec::new(),
+            thinned_final_run: false,
             ..defaults
         };
     }
@@ -307,6 +312,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
         head_turn_below: o.head_turns.map_or(defaults.head_turn_below, f64::from),
         restart_arm_swing: o.restart_arm_swing.unwrap_or(defaults.restart_arm_swing),
         thinned_restarts: if o.no_thinned_restarts { Vec::new() } else { defaults.thinned_restarts.clone() },
+        thinned_final_run: defaults.thinned_final_run && !o.no_thinned_final_run,
         ..defaults
     }
 }

@@ -1,7 +1,7 @@
 //! What a single fit of the example prints after it ends: the swap test, the crossed legs and
 //! the restart.
 
-use diffsil::pose::fit::Fitted;
+use diffsil::pose::fit::{Fitted, RestartStart};
 
 /// An energy, or "-" where there is none.
 fn energy(e: Option<f64>) -> String {
@@ -44,11 +44,17 @@ pub fn print_fitted(fitted: &Fitted) {
             println!("{check}: no restart");
         }
         for (k, run) in r.runs.iter().enumerate() {
+            let from = match run.start {
+                RestartStart::Family(family) => format!(
+                    "leg stride {} / arm swing {}{}",
+                    family.leg_stride,
+                    family.arm_swing,
+                    if family.coarse_proxy { "" } else { " without the coarse proxy" }
+                ),
+                RestartStart::LowestEnd => "the lowest end, without the coarsest stage".to_string(),
+            };
             println!(
-                "{check}: restart from leg stride {} / arm swing {}{}, {} steps, energy {:.3e} → {}, {}",
-                run.family.leg_stride,
-                run.family.arm_swing,
-                if run.family.coarse_proxy { "" } else { " without the coarse proxy" },
+                "{check}: restart from {from}, {} steps, energy {:.3e} → {}, {}",
                 run.steps(),
                 r.first_energy,
                 energy(run.energy),

@@ -310,8 +310,10 @@ fn plain_is_the_papers_descent_and_the_default_is_the_librarys_method() {
         (0.0, 0.0, 0, 0.0, 0.0),
         "no blur, prior, swap test, crossed legs or restart"
     );
-    assert!(plain.thinned_restarts.is_empty(), "no restarts for thinned targets either");
+    assert!(plain.thinned_restarts.is_empty() && !plain.thinned_final_run, "no restarts for thinned targets either");
     assert_eq!(parse(&["fit_pose"]), FitOptions::default());
     assert_eq!(parse(&["fit_pose", "--restart-arm-swing", "0"]).restart_arm_swing, 0.0);
     assert!(parse(&["fit_pose", "--no-thinned-restarts"]).thinned_restarts.is_empty());
+    let no_final = parse(&["fit_pose", "--no-thinned-final-run"]);
+    assert_eq!(no_final, FitOptions { thinned_final_run: false, ..FitOptions::default() });
 }

@@ -24,8 +24,9 @@ pub struct Fitted {
     /// looked at (switched off, a skeleton without a pair of legs, a cancelled first run).
     pub crossed_legs: Option<CrossedLegsReport>,
     /// The misfit and thinned-target checks after the crossed legs and the restarts where they
-    /// ran ([`FitOptions::restart_arm_swing`], [`FitOptions::thinned_restarts`]); `None` when
-    /// not looked at (both switched off, a pose-less fit, a cancelled run).
+    /// ran ([`FitOptions::restart_arm_swing`], [`FitOptions::thinned_restarts`],
+    /// [`FitOptions::thinned_final_run`]); `None` when not looked at (all three switched off, a
+    /// pose-less fit, a cancelled run).
     pub restart: Option<RestartReport>,
 }
 
@@ -45,7 +46,8 @@ pub struct Fitted {
 /// ([`misfit_blocks`](super::misfit_blocks)), all of that runs once more from the arms swung
 /// ([`FitOptions::restart_arm_swing`]), and where the targets look thinner than the body (the
 /// outline nuisance at or below [`FitOptions::thinned_below`]) once from each family of
-/// [`FitOptions::thinned_restarts`] instead; the lowest end is kept. Those runs' steps
+/// [`FitOptions::thinned_restarts`] instead, then once from the lowest end alone without the
+/// coarsest stage ([`FitOptions::thinned_final_run`]); the lowest end is kept. Those runs' steps
 /// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
 /// lowest of the others.
 ///
@@ -105,7 +107,7 @@ pub fn fit(
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;
     let first = run_pass(&mut fit, options, &schedule, &hypotheses, outline_rate, &mut on_step)?;
-    let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty();
+    let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty() || options.thinned_final_run;
     let restart = if options.fit_pose && restarts && !first.cancelled() {
         Some(restarts_after_first_pass(&mut fit, options, &hypotheses, first.steps(), outline_rate, &mut on_step)?)
     } else {

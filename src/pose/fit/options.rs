@@ -245,9 +245,27 @@ pub struct FitOptions {
     /// a pixel the first three families took the MakeHuman body's failures from 25 to 13 in 60
     /// fits and the built-in figure's from 23 to 4 in 120 (one fit became a failure); the fourth,
     /// off the proxy, from 13 to 8 and from 4 to 3 (none became one). A thinned fit runs the
-    /// method five times, about four to five times as long as one that is not; no fit on exact,
-    /// dilated or flipped masks counted as thinned (`docs/pose-fit-evaluation.md`).
+    /// method five times (six with [`FitOptions::thinned_final_run`]), four to five times as
+    /// long as one that is not; no fit on exact, dilated or flipped masks counted as thinned
+    /// (`docs/pose-fit-evaluation.md`).
     pub thinned_restarts: Vec<RestartFamily>,
+    /// Where the targets look thinned ([`FitOptions::thinned_below`]), one more run after the
+    /// families of [`FitOptions::thinned_restarts`]: from the lowest end so far alone (the
+    /// first pass's or a family's pose, Adam, the outline and the shape started afresh as a
+    /// restart does), the stages without the coarsest one (so without the coarse proxy), then
+    /// its swap test and crossed legs as any pass; the fit ends there where it ends lower
+    /// ([`RestartStart::LowestEnd`](super::RestartStart::LowestEnd)). Not for a fit without
+    /// blur (one stage). Default [`FitOptions::THINNED_FINAL_RUN`].
+    ///
+    /// Every start of the families ends with the thinned limbs a little off their faint lines
+    /// (the true pose's energy lower still); the middle blur, from the lowest of those ends
+    /// and with the whole mesh, settles them closer in some fits. On masks eroded by a pixel it
+    /// changed 26 of the built-in figure's 120 fits (seeds 31–150: median 11.6 → 9.8 mm,
+    /// failures 3 → 2) and 8 of the MakeHuman body's 60 (seeds 1–60: 12.0 → 11.4 mm, failures
+    /// 8 → 8), 30 of them closer to the truth and 4 further (by 0.4–7.3 mm); it costs one more
+    /// run (a thinned fit runs the method six times). Fits of masks that do not look thinned
+    /// never run it (`docs/pose-fit-evaluation.md`).
+    pub thinned_final_run: bool,
 }
 
 impl Default for FitOptions {
@@ -288,6 +306,7 @@ impl Default for FitOptions {
             restart_arm_swing: FitOptions::RESTART_ARM_SWING,
             thinned_below: FitOptions::THINNED_BELOW,
             thinned_restarts: FitOptions::THINNED_RESTARTS.to_vec(),
+            thinned_final_run: FitOptions::THINNED_FINAL_RUN,
         }
     }
 }
@@ -328,6 +347,10 @@ impl FitOptions {
         RestartFamily::swing(0.3, 0.7),
         RestartFamily { leg_stride: 0.3, arm_swing: 0.4, coarse_proxy: false },
     ];
+
+    /// Whether `FitOptions::default()` runs once more from the lowest end where the targets
+    /// look thinned ([`FitOptions::thinned_final_run`]).
+    pub const THINNED_FINAL_RUN: bool = true;
 
     /// Default steps of the limb swap test ([`FitOptions::swap_steps`]).
     pub const SWAP_STEPS: u32 = 10;

@@ -2,12 +2,13 @@
 //! ([`misfit_blocks`]) or its targets look thinned (the outline nuisance near −1): the whole
 //! method once more from other starting poses (the arms swung forward and back,
 //! [`FitOptions::restart_arm_swing`]; for thinned targets each family of
-//! [`FitOptions::thinned_restarts`]), and the fit ends at the lowest energy.
+//! [`FitOptions::thinned_restarts`], then a run from the lowest end alone without the coarsest
+//! stage, [`FitOptions::thinned_final_run`]), and the fit ends at the lowest energy.
 
 use std::ops::ControlFlow;
 
 use super::pass::{run_pass, Pass};
-use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Stop, SwapReport};
+use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Schedule, Stop, SwapReport};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
 
@@ -90,6 +91,16 @@ impl RestartFamily {
     }
 }
 
+/// Where a restart of [`fit`](super::fit) starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RestartStart {
+    /// The whole method from a family's starting poses.
+    Family(RestartFamily),
+    /// The lowest end so far (the first pass's or a family's) alone, without the coarsest stage
+    /// ([`FitOptions::thinned_final_run`]).
+    LowestEnd,
+}
+
 /// What [`fit`](super::fit) found where its first pass (the first run, its swap test and the
 /// runs from the crossed legs) ended, and the restarts where they ran.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,8 +126,8 @@ pub struct RestartReport {
 /// The method run again from other starting poses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RestartRun {
-    /// The family it ran from.
-    pub family: RestartFamily,
+    /// Where it started.
+    pub start: RestartStart,
     /// The run's report; its steps follow the first pass's (and the earlier restarts') in the
     /// callback's [`Progress`].
     pub report: RunReport,
@@ -148,7 +159,9 @@ impl RestartReport {
 /// [`FitOptions::thinned_restarts`]; otherwise, where the fit misses a piece of its targets,
 /// from the arms swung by [`FitOptions::restart_arm_swing`]. A family whose starting poses are
 /// the first run's or an earlier restart's, on the same mesh (the coarse proxy or not), is
-/// skipped; the fit is left at the lowest end, and a cancelled restart ends the restarts.
+/// skipped. For thinned targets a run from the lowest end so far follows the families
+/// ([`FitOptions::thinned_final_run`]). The fit is left at the lowest end, and a cancelled
+/// restart ends the restarts.
 pub(super) fn restarts_after_first_pass(
     fit: &mut PoseFit,
     options: &FitOptions,
@@ -176,6 +189,7 @@ pub(super) fn restarts_after_first_pass(
     // The lowest end so far among the restarts: its energy, its state and outline rate.
     let mut lowest: Option<(f64, FitState, f32)> = None;
     let mut steps = first_steps;
+    let mut cancelled = false;
     for family in families {
         let restarted = FitOptions {
             leg_stride: family.leg_stride,
@@ -203,10 +217,10 @@ pub(super) fn restarts_after_first_pass(
             fit.put_coarse_proxy(proxy);
         }
         let pass = pass?;
-        let cancelled = pass.cancelled();
+        cancelled = pass.cancelled();
         let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
         let Pass { report, swap, crossed_legs } = pass;
-        let run = RestartRun { family, report, swap, crossed_legs, energy };
+        let run = RestartRun { start: RestartStart::Family(family), report, swap, crossed_legs, energy };
         steps += run.steps();
         if let Some(e) = energy {
             if e < lowest.as_ref().map_or(first_energy, |l| l.0) {
@@ -219,6 +233,19 @@ pub(super) fn restarts_after_first_pass(
             break;
         }
     }
+    if thinned && options.thinned_final_run && !cancelled {
+        let (lowest_energy, state) = match &lowest {
+            Some((e, state, _)) => (*e, state.clone()),
+            None => (first_energy, first.clone()),
+        };
+        if let Some(run) = run_from_lowest_end(fit, options, state, outline_rate, steps, on_step)? {
+            if run.energy.is_some_and(|e| e < lowest_energy) {
+                lowest = run.energy.map(|e| (e, fit.state(), fit.outline_rate()));
+                outcome.kept = Some(outcome.runs.len());
+            }
+            outcome.runs.push(run);
+        }
+    }
     if !outcome.runs.is_empty() {
         let (state, rate) = match lowest {
             Some((_, state, rate)) => (state, rate),
@@ -228,4 +255,35 @@ pub(super) fn restarts_after_first_pass(
         fit.set_outline_rate(rate)?;
     }
     Ok(outcome)
+}
+
+/// The run of [`FitOptions::thinned_final_run`]: from the pose of `lowest` (the lowest end so
+/// far) alone, the schedule of `options` without its coarsest stage (so without the coarse
+/// proxy), its swap test and crossed legs as any pass; `None` where the schedule has one stage
+/// only (a fit without blur). Its steps follow `offset` in the callback's [`Progress`].
+fn run_from_lowest_end(
+    fit: &mut PoseFit,
+    options: &FitOptions,
+    lowest: FitState,
+    outline_rate: f32,
+    offset: u32,
+    on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
+) -> Result<Option<RestartRun>> {
+    let (schedule, _) = options.plan(fit.model())?;
+    let stages: Vec<_> = schedule.stages.iter().skip(1).cloned().collect();
+    if stages.is_empty() {
+        return Ok(None);
+    }
+    let without_coarsest = Schedule { hypothesis_steps: 0, stages, ..schedule };
+    fit.set_state(lowest)?;
+    let from = fit.pose();
+    if options.fit_outline {
+        fit.set_outline_rate(outline_rate)?;
+    }
+    let mut callback =
+        |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
+    let Pass { report, swap, crossed_legs } =
+        run_pass(fit, options, &without_coarsest, &[from], outline_rate, &mut callback)?;
+    let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    Ok(Some(RestartRun { start: RestartStart::LowestEnd, report, swap, crossed_legs, energy }))
 }

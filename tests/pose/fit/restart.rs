@@ -2,12 +2,15 @@
 //! `misfit_blocks` counts the 2×2 blocks a fit misses, the restart runs only where there is one,
 //! runs the method again from the arms swung, and the fit ends at the lower energy; where the
 //! targets look thinned (the fitted outline near −1), the method runs again from each family of
-//! starting poses and the fit ends at the lowest.
+//! starting poses, then once from the lowest end without the coarsest stage, and the fit ends at
+//! the lowest.
 
 use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
-use diffsil::pose::fit::{fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, RestartFamily, Stop};
+use diffsil::pose::fit::{
+    fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, RestartFamily, RestartStart, Schedule, Stop,
+};
 use diffsil::pose::skin::SkinnedMesh;
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
 
@@ -95,7 +98,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     assert!(!restart.thinned, "exact masks: {restart:?}");
     assert_eq!(restart.runs.len(), 1, "the arms swung alone: {restart:?}");
     let run = &restart.runs[0];
-    assert_eq!(run.family, RestartFamily::swing(0.3, FitOptions::RESTART_ARM_SWING));
+    assert_eq!(run.start, RestartStart::Family(RestartFamily::swing(0.3, FitOptions::RESTART_ARM_SWING)));
     assert_eq!(fitted.report.steps + run.steps(), last_step);
     let end = run.energy.expect("not cancelled");
     assert_eq!(restart.kept, (end < restart.first_energy).then_some(0));
@@ -106,7 +109,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     assert_eq!(energy(&mut alone.fit), end);
     assert_eq!(alone.report.steps, run.report.steps);
     // Without it, the first pass is the fit, and the same as with it up to there.
-    let off = FitOptions { restart_arm_swing: 0.0, thinned_restarts: Vec::new(), ..short() };
+    let off = FitOptions { restart_arm_swing: 0.0, thinned_restarts: Vec::new(), thinned_final_run: false, ..short() };
     let mut first = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
     assert!(first.restart.is_none());
     assert_eq!(energy(&mut first.fit), restart.first_energy);
@@ -225,8 +228,11 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     .unwrap();
     let restart = fitted.restart.clone().expect("looked at");
     assert!(restart.thinned, "eroded targets: outline {} ({restart:?})", fitted.fit.outline());
-    let families: Vec<RestartFamily> = restart.runs.iter().map(|r| r.family).collect();
-    assert_eq!(families, FitOptions::THINNED_RESTARTS.to_vec(), "every family, in order");
+    let starts: Vec<RestartStart> = restart.runs.iter().map(|r| r.start).collect();
+    let mut expected: Vec<RestartStart> = FitOptions::THINNED_RESTARTS.map(RestartStart::Family).to_vec();
+    expected.push(RestartStart::LowestEnd);
+    assert_eq!(starts, expected, "every family in order, then the run from the lowest end");
+    let families = FitOptions::THINNED_RESTARTS;
     assert_eq!(fitted.report.steps + restart.steps(), last_step);
     let energies: Vec<f64> = restart.runs.iter().map(|r| r.energy.expect("not cancelled")).collect();
     let lowest = energies.iter().copied().fold(restart.first_energy, f64::min);
@@ -241,13 +247,14 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
             coarse_proxy: if family.coarse_proxy { options.coarse_proxy } else { 0.0 },
             restart_arm_swing: 0.0,
             thinned_restarts: Vec::new(),
+            thinned_final_run: false,
             ..options.clone()
         };
         let mut alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &alone, go_on).unwrap();
         assert_eq!(Some(energy(&mut alone.fit)), run.energy, "{family:?}");
     }
     // Without them, the misfit restart alone (where there is a block), from the same first pass.
-    let off = FitOptions { thinned_restarts: Vec::new(), ..options.clone() };
+    let off = FitOptions { thinned_restarts: Vec::new(), thinned_final_run: false, ..options.clone() };
     let without = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap();
     let without = without.restart.expect("looked at");
     assert_eq!(without.first_energy, restart.first_energy);
@@ -260,7 +267,9 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     let twice = FitOptions { thinned_restarts: repeated, ..options.clone() };
     let once = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &twice, go_on).unwrap();
     let once = once.restart.expect("looked at");
-    assert_eq!(once.runs.iter().map(|r| r.family).collect::<Vec<_>>(), vec![first_run_whole, families[1]]);
+    let once_starts: Vec<RestartStart> = once.runs.iter().map(|r| r.start).collect();
+    let want = [first_run_whole, families[1]].map(RestartStart::Family);
+    assert_eq!(once_starts, [&want[..], &[RestartStart::LowestEnd]].concat());
     // The proxy is back after the family off it: the next family ends as it did above.
     assert_eq!(once.runs[1].energy, restart.runs[1].energy);
     // Without a coarse proxy in the options, a family off the proxy is the same run as on it.
@@ -272,7 +281,8 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     };
     let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &no_proxy, go_on).unwrap();
     let none = none.restart.expect("looked at");
-    assert!(none.thinned && none.runs.is_empty(), "the first run's again, skipped: {none:?}");
+    let only_last = none.runs.len() == 1 && none.runs[0].start == RestartStart::LowestEnd;
+    assert!(none.thinned && only_last, "the first run's again, skipped: {none:?}");
     // Nor without blur, whose steps never render the proxy (and whose only start is the initial
     // pose, whatever the swing).
     let unblurred = FitOptions {
@@ -283,6 +293,7 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     };
     let none = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unblurred, go_on).unwrap();
     let none = none.restart.expect("looked at");
+    // (Nor the run from the lowest end: a schedule of one stage has no stage after the coarsest.)
     assert!(none.thinned && none.runs.is_empty(), "{none:?}");
 }
 
@@ -293,7 +304,7 @@ fn the_thinned_bound_decides_and_bad_families_are_errors_before_any_step() {
     let options = FitOptions { thinned_below: 1.0, restart_arm_swing: 0.0, ..thinned_options() };
     let fitted = fit(model.clone(), cameras.clone(), exact.clone(), renderer(), &options, go_on).unwrap();
     let restart = fitted.restart.expect("looked at");
-    assert!(restart.thinned && restart.runs.len() == FitOptions::THINNED_RESTARTS.len(), "{restart:?}");
+    assert!(restart.thinned && restart.runs.len() == FitOptions::THINNED_RESTARTS.len() + 1, "{restart:?}");
     // ... and eroded ones do not when it is below −1.
     let options = FitOptions { thinned_below: -1.5, restart_arm_swing: 0.0, ..thinned_options() };
     let fitted = fit(model.clone(), cameras.clone(), eroded(&exact), renderer(), &options, go_on).unwrap();
@@ -318,4 +329,54 @@ fn the_thinned_bound_decides_and_bad_families_are_errors_before_any_step() {
         });
         assert!(matches!(result, Err(Error::InvalidSettings(_))), "{result:?}");
     }
+}
+
+#[test]
+fn the_last_thinned_run_starts_alone_from_the_lowest_end_without_the_coarsest_stage() {
+    let (model, cameras, targets) = scene();
+    let targets = eroded(&targets);
+    // 45 steps and the arms swung 0.7: a family that ends below the first pass here, so that
+    // the lowest end is not the first pass's.
+    let options = FitOptions { steps: 45, thinned_restarts: vec![RestartFamily::swing(0.3, 0.7)], ..thinned_options() };
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
+    let first_steps = fitted.report.steps;
+    let with = fitted.restart.expect("looked at");
+    let last = with.runs.last().expect("restarts ran");
+    assert_eq!(last.start, RestartStart::LowestEnd);
+    // Switched off: the same families, the same ends, and nothing after them.
+    let off = FitOptions { thinned_final_run: false, ..options.clone() };
+    let mut without = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap();
+    let families = without.restart.clone().expect("looked at");
+    assert_eq!(families.runs.len() + 1, with.runs.len());
+    assert_eq!(families.kept, Some(0), "the family ends lowest: {families:?}");
+    for (a, b) in families.runs.iter().zip(&with.runs) {
+        assert_eq!((a.start, a.energy), (b.start, b.energy));
+    }
+    // The run is the schedule without its coarsest stage from the lowest end's pose alone (the
+    // fit without it ends there), then the swap test: the same end, bit for bit.
+    let (schedule, _) = options.plan(without.fit.model()).unwrap();
+    let later = Schedule { hypothesis_steps: 0, stages: schedule.stages[1..].to_vec(), ..schedule };
+    let from = without.fit.pose();
+    without.fit.set_outline_rate(options.outline_rate).unwrap();
+    let report = without.fit.run(&later, &[from], go_on).unwrap();
+    without.fit.swap_limbs(&options.swap_test()).unwrap();
+    assert_eq!(report.steps, last.report.steps);
+    assert_eq!(Some(energy(&mut without.fit)), last.energy);
+    // Kept only where it ends below every other end.
+    let lowest_before = families.runs.iter().filter_map(|r| r.energy).fold(families.first_energy, f64::min);
+    let kept_last = last.energy.is_some_and(|e| e < lowest_before);
+    assert_eq!(with.kept == Some(with.runs.len() - 1), kept_last, "{with:?}");
+    // A family cancelled: the fit ends at the lowest of the others, without the last run.
+    let cancel_at = first_steps + 3;
+    let cancelled = fit(model, cameras, targets, renderer(), &options, |_, p| {
+        if p.step == cancel_at {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    let cancelled = cancelled.restart.expect("looked at");
+    assert_eq!(cancelled.runs.len(), 1, "{cancelled:?}");
+    assert_eq!((cancelled.runs[0].report.stop, cancelled.kept), (Stop::Cancelled, None));
 }
