@@ -115,8 +115,9 @@ impl fmt::Display for AdapterReport {
 /// with Vulkan alone they ran).
 const SEARCH_ORDER: [wgpu::Backends; 2] = [wgpu::Backends::all().difference(wgpu::Backends::GL), wgpu::Backends::GL];
 
-/// Serialises the GL search: EGL's initialisation is not safe to run from several threads at
-/// once on every driver.
+/// Serialises the GL search and the life of the GL adapters it finds ([`with_adapters`]):
+/// EGL's initialisation is not safe to run from several threads at once on every driver, and a
+/// GL adapter's EGL context is made current on whichever thread searches or drops one.
 static GL_SEARCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// The instances made so far, by the backends and flags they were made with, kept for the
@@ -150,13 +151,23 @@ fn instance_from_env(backends: wgpu::Backends) -> Option<wgpu::Instance> {
     Some(instance)
 }
 
-/// The adapters of `backends` (allowed by `WGPU_BACKEND`), with the GL search serialised.
-async fn enumerate(backends: wgpu::Backends) -> Vec<wgpu::Adapter> {
+/// `inspect` run on the adapters of `backends` (allowed by `WGPU_BACKEND`); what it returns.
+///
+/// With GL among `backends` all of it holds [`GL_SEARCH`]: the search, `inspect`, and the drop
+/// of every adapter `inspect` does not return. wgpu-hal makes a GL adapter's EGL context current
+/// on the thread that searches and on the one that drops an adapter, and panics (EGL's
+/// `BadAccess`) where that context is current on another thread at the time: with the lock
+/// around the search alone, about one `cargo test --lib` in ten failed so on a machine whose
+/// only adapters are lavapipe and llvmpipe (its GL adapters found, compared and dropped by
+/// tests on several threads). A GL adapter that `inspect` keeps, and what is made from it, is
+/// not covered: a process that renders on GL from several threads at once is not safe.
+async fn with_adapters<T>(backends: wgpu::Backends, inspect: impl FnOnce(Vec<wgpu::Adapter>) -> T) -> T {
     let _guard = backends.contains(wgpu::Backends::GL).then(|| GL_SEARCH.lock().unwrap_or_else(|e| e.into_inner()));
-    match instance_from_env(backends) {
+    let adapters = match instance_from_env(backends) {
         Some(instance) => instance.enumerate_adapters(backends).await,
         None => Vec::new(),
-    }
+    };
+    inspect(adapters)
 }
 
 fn supports_compute(adapter: &wgpu::Adapter) -> bool {
@@ -184,9 +195,11 @@ fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
 /// GPU and the CPU backend automatically: on a machine with only a software rasterizer the CPU
 /// backend is faster. GL is only looked at when the other backends have no such adapter.
 pub fn hardware_gpu_available() -> bool {
-    SEARCH_ORDER
-        .iter()
-        .any(|&backends| pollster::block_on(enumerate(backends)).iter().any(|a| supports_compute(a) && is_hardware(a)))
+    SEARCH_ORDER.iter().any(|&backends| {
+        pollster::block_on(with_adapters(backends, |adapters| {
+            adapters.iter().any(|a| supports_compute(a) && is_hardware(a))
+        }))
+    })
 }
 
 /// The adapter `choice` asks for, preferring discrete GPUs (see [`AdapterChoice::Best`]), or
@@ -205,31 +218,34 @@ pub(super) async fn select_adapter(choice: &AdapterChoice) -> Result<wgpu::Adapt
         if backends == wgpu::Backends::GL && hardware_seen && !wants_gl {
             break;
         }
-        let adapters = enumerate(backends).await;
-        hardware_seen |= adapters.iter().any(|a| supports_compute(a) && is_hardware(a));
-        seen.extend(adapters.iter().map(|a| {
-            let report = AdapterReport::from_info(&a.get_info());
-            if supports_compute(a) {
-                report.to_string()
-            } else {
-                format!("{report} [no compute shaders]")
+        // The adapters not kept as the best are dropped inside, under the GL lock where GL.
+        with_adapters(backends, |adapters| {
+            hardware_seen |= adapters.iter().any(|a| supports_compute(a) && is_hardware(a));
+            seen.extend(adapters.iter().map(|a| {
+                let report = AdapterReport::from_info(&a.get_info());
+                if supports_compute(a) {
+                    report.to_string()
+                } else {
+                    format!("{report} [no compute shaders]")
+                }
+            }));
+            let matches = |a: &wgpu::Adapter| {
+                let info = a.get_info();
+                match choice {
+                    AdapterChoice::Best => true,
+                    AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
+                    AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
+                }
+            };
+            // The first of the best rank wins: earlier searches, then wgpu's order within one.
+            for adapter in adapters.into_iter().filter(|a| supports_compute(a) && matches(a)) {
+                let rank = |a: &wgpu::Adapter| device_type_rank(a.get_info().device_type);
+                if best.as_ref().is_none_or(|b| rank(&adapter) < rank(b)) {
+                    best = Some(adapter);
+                }
             }
-        }));
-        let matches = |a: &wgpu::Adapter| {
-            let info = a.get_info();
-            match choice {
-                AdapterChoice::Best => true,
-                AdapterChoice::Name(name) => info.name.to_lowercase().contains(&name.to_lowercase()),
-                AdapterChoice::Backend(backends) => backends.contains(wgpu::Backends::from(info.backend)),
-            }
-        };
-        // The first of the best rank wins: earlier searches, then wgpu's order within one.
-        for adapter in adapters.into_iter().filter(|a| supports_compute(a) && matches(a)) {
-            let rank = |a: &wgpu::Adapter| device_type_rank(a.get_info().device_type);
-            if best.as_ref().is_none_or(|b| rank(&adapter) < rank(b)) {
-                best = Some(adapter);
-            }
-        }
+        })
+        .await;
     }
     best.ok_or_else(|| {
         let backends = match std::env::var("WGPU_BACKEND") {

@@ -28,6 +28,19 @@ fn auto_takes_a_hardware_gpu_or_the_cpu() {
 }
 
 #[test]
+fn adapter_searches_on_many_threads_at_once_neither_panic_nor_disagree() {
+    // wgpu-hal makes a GL adapter's EGL context current on the thread that finds it and on the
+    // one that drops it, and panics where it is current on another thread; the searches hold
+    // one lock over both. Where GL is searched (no hardware adapter on the other backends, and
+    // `WGPU_BACKEND` allowing GL: not in CI, which asks for Vulkan), this failed now and then
+    // while the lock covered the search alone.
+    let searches: Vec<_> =
+        (0..8).map(|_| std::thread::spawn(|| (0..12).map(|_| hardware_gpu_available()).collect::<Vec<_>>())).collect();
+    let answers: Vec<bool> = searches.into_iter().flat_map(|s| s.join().expect("an adapter search panicked")).collect();
+    assert!(answers.iter().all(|&a| a == answers[0]), "{answers:?}");
+}
+
+#[test]
 fn gpu_backend_reports_its_adapter() {
     if gpu_or_skip("gpu_backend_reports_its_adapter").is_none() {
         return;
