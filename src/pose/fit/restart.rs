@@ -114,16 +114,18 @@ pub struct RestartReport {
     pub thinned: bool,
     /// The energy ([`PoseFit::energy`]) where the first pass ended.
     pub first_energy: f64,
-    /// The restarts that ran, in order; empty where none did: no misfit block and targets not
-    /// thinned, or every restart's starting poses were the first run's (a fit without blur has
-    /// only the initial pose) or an earlier restart's.
+    /// The restarts that ran, in order (for thinned targets the families', then the run from
+    /// the lowest end); empty where none did: no misfit block and targets not thinned, or every
+    /// restart's starting poses were the first run's (a fit without blur has only the initial
+    /// pose, and no stage after the coarsest for the run from the lowest end) or an earlier
+    /// restart's.
     pub runs: Vec<RestartRun>,
     /// Which of `runs` the fit ends at: the lowest energy, where strictly below `first_energy`
     /// (an earlier run where two end at the same); `None`: the first pass's result.
     pub kept: Option<usize>,
 }
 
-/// The method run again from other starting poses.
+/// The method run again, from other starting poses or from the lowest end so far.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RestartRun {
     /// Where it started.
