@@ -206,46 +206,20 @@ pub(super) fn restarts_after_first_pass(
             continue;
         }
         tried.push((starts.clone(), with_proxy));
-        if options.fit_outline {
-            fit.set_outline_rate(outline_rate)?;
-        }
-        let offset = steps;
-        let mut callback =
-            |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-        // A family off the proxy runs on the whole mesh; the proxy is put back after it.
-        let taken = (!with_proxy).then(|| fit.take_coarse_proxy());
-        let pass = run_pass(fit, &restarted, &schedule, &starts, outline_rate, &mut callback);
-        if let Some(proxy) = taken {
-            fit.put_coarse_proxy(proxy);
-        }
-        let pass = pass?;
-        cancelled = pass.cancelled();
-        let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
-        let Pass { report, swap, crossed_legs } = pass;
-        let run = RestartRun { start: RestartStart::Family(family), report, swap, crossed_legs, energy };
+        let plan = RestartPlan { start: RestartStart::Family(family), schedule, starts, with_proxy };
+        let (run, run_cancelled) = restart_run(fit, &restarted, plan, outline_rate, steps, on_step)?;
         steps += run.steps();
-        if let Some(e) = energy {
-            if e < lowest.as_ref().map_or(first_energy, |l| l.0) {
-                lowest = Some((e, fit.state(), fit.outline_rate()));
-                outcome.kept = Some(outcome.runs.len());
-            }
-        }
-        outcome.runs.push(run);
+        cancelled = run_cancelled;
+        record(&mut outcome, &mut lowest, fit, run);
         if cancelled {
             break;
         }
     }
     if thinned && options.thinned_final_run && !cancelled {
-        let (lowest_energy, state) = match &lowest {
-            Some((e, state, _)) => (*e, state.clone()),
-            None => (first_energy, first.clone()),
-        };
-        if let Some(run) = run_from_lowest_end(fit, options, state, outline_rate, steps, on_step)? {
-            if run.energy.is_some_and(|e| e < lowest_energy) {
-                lowest = run.energy.map(|e| (e, fit.state(), fit.outline_rate()));
-                outcome.kept = Some(outcome.runs.len());
-            }
-            outcome.runs.push(run);
+        let state = lowest.as_ref().map_or_else(|| first.clone(), |l| l.1.clone());
+        if let Some(plan) = lowest_end_plan(fit, options, state)? {
+            let (run, _) = restart_run(fit, options, plan, outline_rate, steps, on_step)?;
+            record(&mut outcome, &mut lowest, fit, run);
         }
     }
     if !outcome.runs.is_empty() {
@@ -259,33 +233,68 @@ pub(super) fn restarts_after_first_pass(
     Ok(outcome)
 }
 
-/// The run of [`FitOptions::thinned_final_run`]: from the pose of `lowest` (the lowest end so
-/// far) alone, the schedule of `options` without its coarsest stage (so without the coarse
-/// proxy), its swap test and crossed legs as any pass; `None` where the schedule has one stage
-/// only (a fit without blur). Its steps follow `offset` in the callback's [`Progress`].
-fn run_from_lowest_end(
-    fit: &mut PoseFit,
-    options: &FitOptions,
-    lowest: FitState,
-    outline_rate: f32,
-    offset: u32,
-    on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
-) -> Result<Option<RestartRun>> {
+/// A restart to run: where it starts, its schedule and starting poses, and whether its coarsest
+/// steps render the coarse proxy (where the fit has one).
+struct RestartPlan {
+    start: RestartStart,
+    schedule: Schedule,
+    starts: Vec<Pose>,
+    with_proxy: bool,
+}
+
+/// The plan of [`FitOptions::thinned_final_run`]: from the pose of `lowest` (the lowest end so
+/// far, which the fit is moved to) alone, the schedule of `options` without its coarsest stage
+/// (so without the coarse proxy); `None` where the schedule has one stage only (a fit without
+/// blur).
+fn lowest_end_plan(fit: &mut PoseFit, options: &FitOptions, lowest: FitState) -> Result<Option<RestartPlan>> {
     let (schedule, _) = options.plan(fit.model())?;
     let stages: Vec<_> = schedule.stages.iter().skip(1).cloned().collect();
     if stages.is_empty() {
         return Ok(None);
     }
-    let without_coarsest = Schedule { hypothesis_steps: 0, stages, ..schedule };
     fit.set_state(lowest)?;
-    let from = fit.pose();
+    let schedule = Schedule { hypothesis_steps: 0, stages, ..schedule };
+    Ok(Some(RestartPlan { start: RestartStart::LowestEnd, schedule, starts: vec![fit.pose()], with_proxy: true }))
+}
+
+/// Runs `plan` as one pass of `options` (the outline's rate first set back to `outline_rate`
+/// where it is fitted; a plan off the proxy with the fit's coarse proxy set aside, put back
+/// after), its steps following `offset` in the callback's [`Progress`]: the run, its energy
+/// where it was not cancelled, and whether it (or a run from its crossed legs) was cancelled.
+fn restart_run(
+    fit: &mut PoseFit,
+    options: &FitOptions,
+    plan: RestartPlan,
+    outline_rate: f32,
+    offset: u32,
+    on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
+) -> Result<(RestartRun, bool)> {
     if options.fit_outline {
         fit.set_outline_rate(outline_rate)?;
     }
     let mut callback =
         |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-    let Pass { report, swap, crossed_legs } =
-        run_pass(fit, options, &without_coarsest, &[from], outline_rate, &mut callback)?;
-    let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
-    Ok(Some(RestartRun { start: RestartStart::LowestEnd, report, swap, crossed_legs, energy }))
+    let taken = (!plan.with_proxy).then(|| fit.take_coarse_proxy());
+    let pass = run_pass(fit, options, &plan.schedule, &plan.starts, outline_rate, &mut callback);
+    if let Some(proxy) = taken {
+        fit.put_coarse_proxy(proxy);
+    }
+    let pass = pass?;
+    let cancelled = pass.cancelled();
+    let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    let Pass { report, swap, crossed_legs } = pass;
+    Ok((RestartRun { start: plan.start, report, swap, crossed_legs, energy }, cancelled))
+}
+
+/// Appends `run` (just ended: the fit is at its end) to `outcome`, and where it ends below the
+/// lowest end so far (`lowest`, else the first pass's energy) makes it the lowest and the one
+/// kept.
+fn record(outcome: &mut RestartReport, lowest: &mut Option<(f64, FitState, f32)>, fit: &PoseFit, run: RestartRun) {
+    if let Some(e) = run.energy {
+        if e < lowest.as_ref().map_or(outcome.first_energy, |l| l.0) {
+            *lowest = Some((e, fit.state(), fit.outline_rate()));
+            outcome.kept = Some(outcome.runs.len());
+        }
+    }
+    outcome.runs.push(run);
 }
