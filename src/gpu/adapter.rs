@@ -159,8 +159,9 @@ fn instance_from_env(backends: wgpu::Backends) -> Option<wgpu::Instance> {
 /// `BadAccess`) where that context is current on another thread at the time: with the lock
 /// around the search alone, about one `cargo test --lib` in ten failed so on a machine whose
 /// only adapters are lavapipe and llvmpipe (its GL adapters found, compared and dropped by
-/// tests on several threads). A GL adapter that `inspect` keeps, and what is made from it, is
-/// not covered: a process that renders on GL from several threads at once is not safe.
+/// tests on several threads). A GL adapter that `inspect` keeps must not be one of the searched
+/// instance's: [`select_adapter`] swaps the one it picks for the same adapter from an instance
+/// of its own ([`own_gl_adapter`]) before the lock is let go.
 async fn with_adapters<T>(backends: wgpu::Backends, inspect: impl FnOnce(Vec<wgpu::Adapter>) -> T) -> T {
     let _guard = backends.contains(wgpu::Backends::GL).then(|| GL_SEARCH.lock().unwrap_or_else(|e| e.into_inner()));
     let adapters = match instance_from_env(backends) {
@@ -168,6 +169,29 @@ async fn with_adapters<T>(backends: wgpu::Backends, inspect: impl FnOnce(Vec<wgp
         None => Vec::new(),
     };
     inspect(adapters)
+}
+
+/// The GL adapter `searched`, found again on a GL instance made for it alone (not kept
+/// in [`INSTANCES`]; the adapter and the devices opened on it keep that instance alive). Call
+/// with [`GL_SEARCH`] held.
+///
+/// Why: wgpu-hal gives all the GL adapters of one instance that instance's one EGL context,
+/// each adapter with a lock of its own. Two contexts opened on adapters of one instance would
+/// make that EGL context current on two threads at once when rendering from both, which EGL
+/// refuses and wgpu-hal turns into a panic (`BadAccess`): the GPU tests on GL (several test
+/// threads, each with a context) failed so in each of three runs. With an instance (and so an
+/// EGL context) per context, each context's calls are serialised by its own adapter's lock and
+/// contexts on different threads use different EGL contexts. The instance kept in
+/// [`INSTANCES`], made by the search before this, keeps the EGL display initialised meanwhile.
+/// When the new instance offers no adapter like `searched` (it should: same display, same
+/// driver), `searched` is returned, which is safe on one thread only.
+fn own_gl_adapter(searched: wgpu::Adapter) -> wgpu::Adapter {
+    let info = searched.get_info();
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    descriptor.backends = wgpu::Backends::GL;
+    let instance = wgpu::Instance::new(descriptor);
+    let found = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::GL));
+    found.into_iter().find(|a| a.get_info() == info).unwrap_or(searched)
 }
 
 fn supports_compute(adapter: &wgpu::Adapter) -> bool {
@@ -238,11 +262,18 @@ pub(super) async fn select_adapter(choice: &AdapterChoice) -> Result<wgpu::Adapt
                 }
             };
             // The first of the best rank wins: earlier searches, then wgpu's order within one.
+            let mut gl_won = false;
             for adapter in adapters.into_iter().filter(|a| supports_compute(a) && matches(a)) {
                 let rank = |a: &wgpu::Adapter| device_type_rank(a.get_info().device_type);
                 if best.as_ref().is_none_or(|b| rank(&adapter) < rank(b)) {
+                    gl_won = adapter.get_info().backend == wgpu::Backend::Gl;
                     best = Some(adapter);
                 }
+            }
+            // Still under the GL lock: the searched instance's adapter goes, and the same
+            // adapter from an instance of its own takes its place.
+            if gl_won {
+                best = best.take().map(own_gl_adapter);
             }
         })
         .await;

@@ -41,6 +41,46 @@ fn adapter_searches_on_many_threads_at_once_neither_panic_nor_disagree() {
 }
 
 #[test]
+fn renderers_on_several_threads_at_once_agree_with_one_alone() {
+    // Each thread opens a context of its own and renders and differentiates at the same time as
+    // the others. On GL, contexts whose adapters came from one wgpu instance shared one EGL
+    // context, and wgpu-hal panicked (`BadAccess`) when two threads made it current at once;
+    // CI runs this on GL as well as on Vulkan.
+    let Some(ctx) = gpu_or_skip("renderers_on_several_threads_at_once_agree_with_one_alone") else { return };
+    let scene = scenes::torus_fold_3d();
+    let alone = {
+        let mut gpu = Renderer::with_gpu_context(RenderSettings::default(), ctx).unwrap();
+        let frame = gpu.render(&scene.mesh, &scene.cameras).unwrap();
+        let d: Vec<Image> = frame.images().iter().map(|i| Image::filled(i.width(), i.height(), 0.5)).collect();
+        (frame.images().to_vec(), gpu.backward(&frame, &d).unwrap())
+    };
+    let threads: Vec<_> = (0..4)
+        .map(|t| {
+            let scene = scenes::torus_fold_3d();
+            std::thread::spawn(move || {
+                let ctx = gpu_or_skip("renderers_on_several_threads_at_once_agree_with_one_alone").unwrap();
+                let mut gpu = Renderer::with_gpu_context(RenderSettings::default(), ctx).unwrap();
+                (0..6)
+                    .map(|i| {
+                        let frame = gpu.render(&scene.mesh, &scene.cameras).unwrap();
+                        let d: Vec<Image> =
+                            frame.images().iter().map(|i| Image::filled(i.width(), i.height(), 0.5)).collect();
+                        let grad = gpu.backward(&frame, &d).unwrap();
+                        println!("thread {t}, round {i}: done");
+                        (frame.images().to_vec(), grad)
+                    })
+                    .collect::<Vec<_>>()
+            })
+        })
+        .collect();
+    for thread in threads {
+        for (images, grad) in thread.join().expect("a renderer on another thread panicked") {
+            assert!(images == alone.0 && grad == alone.1, "a render on several threads differs from one alone");
+        }
+    }
+}
+
+#[test]
 fn gpu_backend_reports_its_adapter() {
     if gpu_or_skip("gpu_backend_reports_its_adapter").is_none() {
         return;

@@ -173,6 +173,8 @@ fn a_dropped_contexts_device_is_taken_over() {
     let Some(probe) = gpu_or_skip("a_dropped_contexts_device_is_taken_over") else { return };
     drop(probe);
     // Other test threads may take the device between the drop and the next context: a few tries.
+    // (On GL the comparison of devices below is weaker: each context's adapter comes from an
+    // instance of its own, whose devices' ids may equal another instance's. CI runs it on Vulkan.)
     let taken_over = (0..10).any(|_| {
         let first = GpuContext::new(&GpuOptions::from_env()).unwrap();
         let device = first.device().clone();
@@ -201,7 +203,12 @@ fn a_lost_device_is_not_taken_over() {
     first.device().destroy();
     drop(first);
     let next = GpuContext::new(&GpuOptions::from_env()).unwrap();
-    assert!(*next.device() != device);
+    // On GL each context's adapter comes from an instance of its own, and devices of different
+    // instances may have equal ids: there the readback below, which a destroyed device fails,
+    // is the check.
+    if next.adapter().backend != wgpu::Backend::Gl {
+        assert!(*next.device() != device);
+    }
     let b = next.storage_buffer_init("b", &[7u32]).unwrap();
     assert_eq!(Readback::new("after a lost device").read::<u32>(&next, &b, 1).unwrap(), [7]);
     next.check_errors().unwrap();
