@@ -251,7 +251,7 @@ pub struct FitOptions {
     pub thinned_restarts: Vec<RestartFamily>,
     /// Where the targets look thinned ([`FitOptions::thinned_below`]), one more run after the
     /// families of [`FitOptions::thinned_restarts`]: from the lowest end so far alone (the
-    /// first pass's or a family's pose, Adam, the outline and the shape started afresh as a
+    /// first pass's or a family's pose and shape; Adam and the outline started afresh as a
     /// restart does), the stages without the coarsest one (so without the coarse proxy), then
     /// its swap test and crossed legs as any pass; the fit ends there where it ends lower
     /// ([`RestartStart::LowestEnd`](super::RestartStart::LowestEnd)). Not for a fit without

@@ -96,8 +96,8 @@ impl RestartFamily {
 pub enum RestartStart {
     /// The whole method from a family's starting poses.
     Family(RestartFamily),
-    /// The lowest end so far (the first pass's or a family's) alone, without the coarsest stage
-    /// ([`FitOptions::thinned_final_run`]).
+    /// The lowest end so far (the first pass's or a family's pose and shape) alone, without the
+    /// coarsest stage ([`FitOptions::thinned_final_run`]).
     LowestEnd,
 }
 
@@ -206,7 +206,7 @@ pub(super) fn restarts_after_first_pass(
             continue;
         }
         tried.push((starts.clone(), with_proxy));
-        let plan = RestartPlan { start: RestartStart::Family(family), schedule, starts, with_proxy };
+        let plan = RestartPlan { start: RestartStart::Family(family), schedule, starts, with_proxy, shape: None };
         let (run, run_cancelled) = restart_run(fit, &restarted, plan, outline_rate, steps, on_step)?;
         steps += run.steps();
         cancelled = run_cancelled;
@@ -240,12 +240,15 @@ struct RestartPlan {
     schedule: Schedule,
     starts: Vec<Pose>,
     with_proxy: bool,
+    /// The shape `β` its starting poses (and the runs from its crossed legs) start with, where
+    /// not the fit's initial shape.
+    shape: Option<Vec<f32>>,
 }
 
-/// The plan of [`FitOptions::thinned_final_run`]: from the pose of `lowest` (the lowest end so
-/// far, which the fit is moved to) alone, the schedule of `options` without its coarsest stage
-/// (so without the coarse proxy); `None` where the schedule has one stage only (a fit without
-/// blur).
+/// The plan of [`FitOptions::thinned_final_run`]: from the pose and shape of `lowest` (the
+/// lowest end so far, which the fit is moved to) alone, the schedule of `options` without its
+/// coarsest stage (so without the coarse proxy); `None` where the schedule has one stage only
+/// (a fit without blur).
 fn lowest_end_plan(fit: &mut PoseFit, options: &FitOptions, lowest: FitState) -> Result<Option<RestartPlan>> {
     let (schedule, _) = options.plan(fit.model())?;
     let stages: Vec<_> = schedule.stages.iter().skip(1).cloned().collect();
@@ -254,13 +257,21 @@ fn lowest_end_plan(fit: &mut PoseFit, options: &FitOptions, lowest: FitState) ->
     }
     fit.set_state(lowest)?;
     let schedule = Schedule { hypothesis_steps: 0, stages, ..schedule };
-    Ok(Some(RestartPlan { start: RestartStart::LowestEnd, schedule, starts: vec![fit.pose()], with_proxy: true }))
+    let shape = Some(fit.shape().to_vec());
+    Ok(Some(RestartPlan {
+        start: RestartStart::LowestEnd,
+        schedule,
+        starts: vec![fit.pose()],
+        with_proxy: true,
+        shape,
+    }))
 }
 
 /// Runs `plan` as one pass of `options` (the outline's rate first set back to `outline_rate`
 /// where it is fitted; a plan off the proxy with the fit's coarse proxy set aside, put back
-/// after), its steps following `offset` in the callback's [`Progress`]: the run, its energy
-/// where it was not cancelled, and whether it (or a run from its crossed legs) was cancelled.
+/// after; a plan's own starting shape in place of the fit's initial one meanwhile), its steps
+/// following `offset` in the callback's [`Progress`]: the run, its energy where it was not
+/// cancelled, and whether it (or a run from its crossed legs) was cancelled.
 fn restart_run(
     fit: &mut PoseFit,
     options: &FitOptions,
@@ -275,7 +286,11 @@ fn restart_run(
     let mut callback =
         |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
     let taken = (!plan.with_proxy).then(|| fit.take_coarse_proxy());
+    let initial_shape = plan.shape.map(|shape| fit.replace_initial_shape(shape));
     let pass = run_pass(fit, options, &plan.schedule, &plan.starts, outline_rate, &mut callback);
+    if let Some(shape) = initial_shape {
+        fit.replace_initial_shape(shape);
+    }
     if let Some(proxy) = taken {
         fit.put_coarse_proxy(proxy);
     }

@@ -56,6 +56,13 @@ impl PoseFit {
         Ok(())
     }
 
+    /// The shape [`PoseFit::restart`] goes back to set to `shape` (of the model's length: a
+    /// fit's own shape); the one it replaces.
+    pub(in crate::pose::fit) fn replace_initial_shape(&mut self, shape: Vec<f32>) -> Vec<f32> {
+        debug_assert_eq!(shape.len(), self.initial_shape.len());
+        std::mem::replace(&mut self.initial_shape, shape)
+    }
+
     /// Moves to `pose`, the initial shape and no inflation, and forgets Adam's moments (a fresh start from
     /// there). Errors when `pose` does not fit the skeleton or carries joint translations where
     /// the fit's initial pose did not (or the other way round).

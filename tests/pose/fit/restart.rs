@@ -11,7 +11,7 @@ use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
     fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, RestartFamily, RestartStart, Schedule, Stop,
 };
-use diffsil::pose::skin::SkinnedMesh;
+use diffsil::pose::skin::{MorphTargets, SkinnedMesh};
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
 
 use super::call::{go_on, renderer};
@@ -379,4 +379,55 @@ fn the_last_thinned_run_starts_alone_from_the_lowest_end_without_the_coarsest_st
     let cancelled = cancelled.restart.expect("looked at");
     assert_eq!(cancelled.runs.len(), 1, "{cancelled:?}");
     assert_eq!((cancelled.runs[0].report.stop, cancelled.kept), (Stop::Cancelled, None));
+}
+
+#[test]
+fn the_last_thinned_run_of_a_shape_fit_starts_from_the_lowest_ends_shape() {
+    let (model, cameras, targets) = scene();
+    let targets = eroded(&targets);
+    // Two shapes for the figure: wider or narrower about its vertical axis, and taller or
+    // shorter. The truth has neither (β = 0); the fit starts from a wrong shape and moves it,
+    // so the lowest end's β is away from the initial one.
+    let positions = model.mesh.positions().to_vec();
+    let morphs = MorphTargets {
+        names: vec!["width".into(), "height".into()],
+        deltas: vec![
+            positions.iter().map(|p| glam::Vec3::new(p.x, 0.0, p.z)).collect(),
+            positions.iter().map(|p| glam::Vec3::new(0.0, 0.2 * p.y, 0.0)).collect(),
+        ],
+        joint_offsets: None,
+    };
+    let model = model.with_morph_targets(morphs).unwrap();
+    let options = FitOptions {
+        steps: 45,
+        fit_shape: true,
+        initial_shape: vec![0.4, -0.4],
+        thinned_restarts: vec![RestartFamily::swing(0.3, 0.7)],
+        ..thinned_options()
+    };
+    let mut shapes: Vec<Vec<f32>> = Vec::new();
+    let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |fit, p| {
+        assert_eq!(p.step as usize, shapes.len() + 1);
+        shapes.push(fit.shape().to_vec());
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let with = fitted.restart.expect("looked at");
+    let (last, before) = with.runs.split_last().expect("restarts ran");
+    assert_eq!(last.start, RestartStart::LowestEnd, "{with:?}");
+    // The lowest end before the last run: where the fit without the last run ends.
+    let off = FitOptions { thinned_final_run: false, ..options.clone() };
+    let without = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
+    let lowest = without.fit.shape().to_vec();
+    let moved = lowest.iter().zip(&options.initial_shape).fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+    assert!(moved > 0.1, "the lowest end's shape must be away from the initial one here: {lowest:?}");
+    // The last run's first step is one Adam step (at most the learning rate per coefficient)
+    // from the lowest end's shape, not from the initial shape.
+    let first = fitted.report.steps + before.iter().map(|r| r.steps()).sum::<u32>();
+    let shape = &shapes[first as usize];
+    let off_by = shape.iter().zip(&lowest).fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        off_by <= options.learning_rate * 1.001,
+        "the last run's first step {shape:?} is not one step from the lowest end's shape {lowest:?}"
+    );
 }
