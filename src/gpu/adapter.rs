@@ -131,16 +131,20 @@ static GL_SEARCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
 static INSTANCES: std::sync::Mutex<Vec<(wgpu::Backends, wgpu::InstanceFlags, wgpu::Instance)>> =
     std::sync::Mutex::new(Vec::new());
 
+/// The description of an instance of those of `backends` that `WGPU_BACKEND` (and wgpu's other
+/// `WGPU_*` instance variables) allow, or `None` when none is left.
+fn descriptor_from_env(backends: wgpu::Backends) -> Option<wgpu::InstanceDescriptor> {
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    descriptor.backends &= backends;
+    (!descriptor.backends.is_empty()).then_some(descriptor)
+}
+
 /// An instance of those of `backends` that `WGPU_BACKEND` (and wgpu's other `WGPU_*` instance
 /// variables) allow, or `None` when none is left: the one made earlier for the same backends
 /// and flags when there is one ([`INSTANCES`]; its other options are those of the variables
 /// when it was made), else a new one, kept.
 fn instance_from_env(backends: wgpu::Backends) -> Option<wgpu::Instance> {
-    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    descriptor.backends &= backends;
-    if descriptor.backends.is_empty() {
-        return None;
-    }
+    let descriptor = descriptor_from_env(backends)?;
     let mut kept = INSTANCES.lock().unwrap_or_else(|e| e.into_inner());
     let key = (descriptor.backends, descriptor.flags);
     if let Some((_, _, instance)) = kept.iter().find(|(b, f, _)| (*b, *f) == key) {
@@ -186,9 +190,9 @@ async fn with_adapters<T>(backends: wgpu::Backends, inspect: impl FnOnce(Vec<wgp
 /// When the new instance offers no adapter like `searched` (it should: same display, same
 /// driver), `searched` is returned, which is safe on one thread only.
 fn own_gl_adapter(searched: wgpu::Adapter) -> wgpu::Adapter {
+    // GL is allowed: the searched adapter came from an instance of the same description.
+    let Some(descriptor) = descriptor_from_env(wgpu::Backends::GL) else { return searched };
     let info = searched.get_info();
-    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    descriptor.backends = wgpu::Backends::GL;
     let instance = wgpu::Instance::new(descriptor);
     let found = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::GL));
     found.into_iter().find(|a| a.get_info() == info).unwrap_or(searched)
