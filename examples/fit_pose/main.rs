@@ -129,6 +129,7 @@ fn fit_seed(
     let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
     let crossed_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
     let restart = fitted.restart.as_ref().filter(|r| !r.runs.is_empty()).map(|r| (r.kept.is_some(), r.steps()));
+    let polish_steps = fitted.polish.as_ref().map_or(0, |p| p.steps);
     let thinned = fitted.restart.as_ref().is_some_and(|r| r.thinned);
     if !quiet {
         report::print_fitted(&fitted);
@@ -157,7 +158,7 @@ fn fit_seed(
         }
     }
     let backend = fit.renderer().backend_name();
-    let steps = run.steps + crossed_steps + restart.map_or(0, |r| r.1);
+    let steps = run.steps + crossed_steps + restart.map_or(0, |r| r.1) + polish_steps;
     Ok(Outcome {
         error_m,
         height_m,

@@ -134,6 +134,11 @@ pub struct Options {
     /// (FitOptions::thinned_final_run)
     #[arg(long)]
     pub no_thinned_final_run: bool,
+    /// Steps of the polish that ends the fit (unblurred, at a quarter and then a tenth of the
+    /// learning rate, kept where the energy ends lower); 0: none [default:
+    /// FitOptions::POLISH_STEPS, 40]
+    #[arg(long, value_name = "N")]
+    pub polish_steps: Option<u32>,
     /// Cell of the coarse proxy the steps at the coarsest blur render (the mesh's vertices
     /// clustered, one kept per cell and dominant joint), as a fraction of the model's height; 0:
     /// the whole mesh [default: FitOptions::COARSE_PROXY = 0.02]
@@ -278,6 +283,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
             restart_arm_swing: 0.0,
             thinned_restarts: Vec::new(),
             thinned_final_run: false,
+            polish_steps: 0,
             ..defaults
         };
     }
@@ -313,6 +319,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
         restart_arm_swing: o.restart_arm_swing.unwrap_or(defaults.restart_arm_swing),
         thinned_restarts: if o.no_thinned_restarts { Vec::new() } else { defaults.thinned_restarts.clone() },
         thinned_final_run: defaults.thinned_final_run && !o.no_thinned_final_run,
+        polish_steps: o.polish_steps.unwrap_or(defaults.polish_steps),
         ..defaults
     }
 }

@@ -1,5 +1,5 @@
 //! What a single fit of the example prints after it ends: the swap test, the crossed legs and
-//! the restart.
+//! the restart and the polish.
 
 use diffsil::pose::fit::{Fitted, RestartStart};
 
@@ -9,7 +9,7 @@ fn energy(e: Option<f64>) -> String {
 }
 
 /// Prints the swap test's candidates, the crossed legs' energies and runs, and the misfit check
-/// and restart of `fitted`, where they ran.
+/// and restart and the polish of `fitted`, where they ran.
 pub fn print_fitted(fitted: &Fitted) {
     if let Some(report) = &fitted.swap {
         let candidates: Vec<String> = report
@@ -61,5 +61,14 @@ pub fn print_fitted(fitted: &Fitted) {
                 if r.kept == Some(k) { "kept" } else { "not kept" }
             );
         }
+    }
+    if let Some(p) = &fitted.polish {
+        println!(
+            "polish: {} steps, energy {:.3e} → {:.3e}, {}",
+            p.steps,
+            p.energy_before,
+            p.energy_after,
+            if p.kept { "kept" } else { "not kept" }
+        );
     }
 }

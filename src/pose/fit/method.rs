@@ -3,6 +3,7 @@
 use std::ops::ControlFlow;
 
 use super::pass::{run_pass, Pass};
+use super::polish::PolishReport;
 use super::restart::{restarts_after_first_pass, RestartReport};
 use super::{CrossedLegsReport, FitOptions, FitSettings, Free, PoseFit, Progress, RunReport, SwapReport};
 use crate::pose::skin::SkinnedMesh;
@@ -28,6 +29,9 @@ pub struct Fitted {
     /// [`FitOptions::thinned_final_run`]); `None` when not looked at (all three switched off, a
     /// pose-less fit, a cancelled run).
     pub restart: Option<RestartReport>,
+    /// The polish that ends the fit ([`FitOptions::polish_steps`], [`PoseFit::polish`]); `None`
+    /// when it did not run (0 steps, a cancelled run).
+    pub polish: Option<PolishReport>,
 }
 
 /// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per
@@ -49,7 +53,9 @@ pub struct Fitted {
 /// [`FitOptions::thinned_restarts`] instead, then once from the lowest end alone without the
 /// coarsest stage ([`FitOptions::thinned_final_run`]); the lowest end is kept. Those runs' steps
 /// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
-/// lowest of the others.
+/// lowest of the others. Then, unless a run was cancelled, the polish
+/// ([`FitOptions::polish_steps`]): a few unblurred steps at a falling learning rate, kept where
+/// they end lower.
 ///
 /// ```
 /// use std::ops::ControlFlow;
@@ -113,6 +119,17 @@ pub fn fit(
     } else {
         None
     };
+    let cancelled =
+        first.cancelled() || restart.as_ref().is_some_and(|r| r.runs.iter().any(|run| run.energy.is_none()));
+    let polish = if options.polish_steps > 0 && !cancelled {
+        let offset = first.steps() + restart.as_ref().map_or(0, |r| r.steps());
+        let report = fit.polish(options.polish_steps, |fit, progress| {
+            on_step(fit, &Progress { step: offset + progress.step, ..*progress })
+        })?;
+        Some(report)
+    } else {
+        None
+    };
     let Pass { report, swap, crossed_legs } = first;
-    Ok(Fitted { fit, report, swap, crossed_legs, restart })
+    Ok(Fitted { fit, report, swap, crossed_legs, restart, polish })
 }

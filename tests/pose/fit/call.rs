@@ -45,8 +45,11 @@ fn the_library_call_beats_its_start() {
         ControlFlow::Continue(())
     })
     .unwrap();
-    // The runs from the crossed legs and the restart, when there are any, number their steps on.
-    let more = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps()) + fitted.restart.as_ref().map_or(0, |r| r.steps());
+    // The runs from the crossed legs, the restart and the polish, when there are any, number
+    // their steps on.
+    let more = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps())
+        + fitted.restart.as_ref().map_or(0, |r| r.steps())
+        + fitted.polish.as_ref().map_or(0, |p| p.steps);
     assert_eq!(fitted.report.steps + more, steps, "one progress call per step");
     assert!(fitted.report.steps <= 80);
     assert_eq!(fitted.report.hypothesis_energies.len(), 3, "rest and a stride each way");

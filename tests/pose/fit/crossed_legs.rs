@@ -6,6 +6,9 @@
 //! above the first, and kept only well below the others) and ends at that energy; a fit whose legs
 //! hold each other's places ends with them in their own, by the runs or by the refinement alone;
 //! the runs can be switched off and cancelled, and a bad bound is an error.
+//!
+//! The polish that ends a fit (`FitOptions::polish_steps`) is off here: these tests compare where
+//! the runs end with where the fit ends (`polish.rs` tests the polish after them).
 
 use std::ops::ControlFlow;
 
@@ -114,7 +117,8 @@ fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
     // them there, and the runs from the crossed pose of its result (near the truth) win.
     let CrossedStart { model, truth, wrong, cameras, targets, truth_vertices } = crossed_start(109);
     let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
-    let options = FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, ..FitOptions::default() };
+    let options =
+        FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, polish_steps: 0, ..FitOptions::default() };
     let mut blurs = Vec::new();
     let fitted = fit(model.clone(), cameras, targets, renderer(), &options, |_, p| {
         assert_eq!(p.step as usize, blurs.len() + 1, "steps numbered on across the runs");
@@ -149,7 +153,7 @@ fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
 #[test]
 fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     let (model, _, cameras, targets) = figure_scene(5, 24);
-    let base = FitOptions { steps: 30, swap_steps: 2, ..FitOptions::default() };
+    let base = FitOptions { steps: 30, swap_steps: 2, polish_steps: 0, ..FitOptions::default() };
     // A bound no energy exceeds: the second run always runs.
     let options = FitOptions { crossed_legs_within: 1e300, ..base.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
@@ -263,7 +267,8 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
 fn a_looser_ratio_runs_the_second_run_when_the_excess_per_changed_pixel_is_small() {
     let (model, _, cameras, targets) = figure_scene(5, 24);
     // A strict bound no ratio meets: only the looser rule can run the second run.
-    let strict = FitOptions { steps: 30, swap_steps: 0, crossed_legs_within: 1e-9, ..FitOptions::default() };
+    let strict =
+        FitOptions { steps: 30, swap_steps: 0, crossed_legs_within: 1e-9, polish_steps: 0, ..FitOptions::default() };
     let run = |options: &FitOptions| {
         let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), options, go_on).unwrap();
         fitted.crossed_legs.expect("looked at")
@@ -322,7 +327,8 @@ fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
     // its crossed legs (near the truth) pass the second run's bound, and the second run is
     // cancelled at its first step, so only the refinement can move the legs back.
     let CrossedStart { model, truth, wrong, cameras, targets, truth_vertices } = crossed_start(109);
-    let options = FitOptions { steps: 8, initial: Some(wrong), swap_steps: 5, ..FitOptions::default() };
+    let options =
+        FitOptions { steps: 8, initial: Some(wrong), swap_steps: 5, polish_steps: 0, ..FitOptions::default() };
     let first_only = FitOptions { crossed_legs_within: 0.0, ..options.clone() };
     let alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &first_only, go_on).unwrap();
     let first_steps = alone.report.steps;
@@ -363,7 +369,8 @@ fn the_third_run_from_the_crossed_legs_alone_is_kept_where_it_ends_lowest() {
     // 2.4e-4 against 4.0e-4, both far below the first run's 3.7e-3).
     let CrossedStart { model, wrong, cameras, targets, truth_vertices, .. } = crossed_start(124);
     let start_error = per_vertex_error(&model.skin(&wrong).unwrap(), &truth_vertices);
-    let options = FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, ..FitOptions::default() };
+    let options =
+        FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, polish_steps: 0, ..FitOptions::default() };
     let fitted = fit(model, cameras, targets, renderer(), &options, go_on).unwrap();
     let crossed = fitted.crossed_legs.as_ref().expect("looked at");
     let [second, third] = [0, 1].map(|k| crossed.runs[k].energy.expect("ran"));
@@ -396,7 +403,7 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
         let error = per_vertex_error(&ended.vertices().unwrap(), &truth_vertices);
         (crossed, ended.energy().unwrap(), error, blurs, fitted.report.steps)
     };
-    let (crossed, energy, error, blurs, first_steps) = run(&FitOptions::default());
+    let (crossed, energy, error, blurs, first_steps) = run(&FitOptions { polish_steps: 0, ..FitOptions::default() });
     let starts: Vec<CrossedRunStart> = crossed.runs.iter().map(|r| r.start).collect();
     use CrossedRunStart::{AboutCrossed, AboutCrossedWithoutCoarsest, CrossedAlone};
     assert_eq!(starts, [AboutCrossed, CrossedAlone, AboutCrossedWithoutCoarsest], "{crossed:?}");
@@ -418,7 +425,7 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
     assert!(blurs[fourth_start..].iter().all(|&b| b < coarsest), "{blurs:?}");
     assert_eq!(blurs.len(), fourth_start + r4.steps as usize);
     // A bound below its ratio: not kept, the fit ends at the lowest of the others, legs crossed.
-    let strict = FitOptions { fourth_run_below: 0.2, ..FitOptions::default() };
+    let strict = FitOptions { fourth_run_below: 0.2, polish_steps: 0, ..FitOptions::default() };
     let (crossed, energy, error, ..) = run(&strict);
     assert_eq!(crossed.runs.len(), 3, "{crossed:?}");
     assert_eq!(crossed.end, lowest_with(&crossed, 0.2), "{crossed:?}");
@@ -426,6 +433,6 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
     assert_eq!(Some(energy), end_energy(&crossed, crossed.end));
     assert!(error > 0.035, "per-vertex error {error} m");
     // No fourth run at 0.
-    let (crossed, ..) = run(&FitOptions { fourth_run_below: 0.0, ..FitOptions::default() });
+    let (crossed, ..) = run(&FitOptions { fourth_run_below: 0.0, polish_steps: 0, ..FitOptions::default() });
     assert_eq!(crossed.runs.len(), 2, "{crossed:?}");
 }

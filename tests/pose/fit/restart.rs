@@ -4,6 +4,9 @@
 //! targets look thinned (the fitted outline near −1), the method runs again from each family of
 //! starting poses, then once from the lowest end without the coarsest stage, and the fit ends at
 //! the lowest.
+//!
+//! The polish that ends a fit (`FitOptions::polish_steps`) is off here: these tests compare where
+//! the runs end with where the fit ends (`polish.rs` tests the polish after them).
 
 use std::ops::ControlFlow;
 
@@ -75,7 +78,7 @@ fn scene() -> (SkinnedMesh, Vec<Camera>, Vec<Image>) {
 /// Options whose first pass ends far from the targets (too few steps to get there), so that the
 /// restart runs.
 fn short() -> FitOptions {
-    FitOptions { steps: 12, crossed_legs_within: 0.0, ..FitOptions::default() }
+    FitOptions { steps: 12, crossed_legs_within: 0.0, polish_steps: 0, ..FitOptions::default() }
 }
 
 /// The energy of `fit` at its pose now.
@@ -121,7 +124,8 @@ fn a_fit_that_matches_its_masks_takes_no_restart() {
     // fit ends where it would without the restart.
     let (model, cameras, targets) = scene();
     let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 3);
-    let options = FitOptions { steps: 24, initial: Some(truth), coarse_proxy: 0.0, ..FitOptions::default() };
+    let options =
+        FitOptions { steps: 24, initial: Some(truth), coarse_proxy: 0.0, polish_steps: 0, ..FitOptions::default() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
     let restart = fitted.restart.expect("looked at");
     assert_eq!(restart.misfit_blocks, vec![0; 4]);
@@ -211,7 +215,7 @@ fn eroded(targets: &[Image]) -> Vec<Image> {
 
 /// Options whose first pass ends with the outline fitted near −1 on eroded targets.
 fn thinned_options() -> FitOptions {
-    FitOptions { steps: 30, crossed_legs_within: 0.0, ..FitOptions::default() }
+    FitOptions { steps: 30, crossed_legs_within: 0.0, polish_steps: 0, ..FitOptions::default() }
 }
 
 #[test]
