@@ -1,8 +1,9 @@
 //! The polish that ends [`fit`](super::fit): a few unblurred steps at a falling learning rate
 //! ([`PoseFit::polish`], [`FitOptions::polish_steps`](super::FitOptions::polish_steps)).
 //!
-//! At a constant rate Adam does not settle in a minimum: near one its steps keep about the
-//! rate's length while the gradient's sign flips, so a fit stops wherever the last step left it,
+//! At a constant rate Adam does not settle in a minimum: its steps do not shrink with the
+//! gradient (each is divided by the gradient's running size), so near a minimum they stay a
+//! good fraction of the rate and a fit stops wherever the last step left it,
 //! up to a rate's worth of rotation off in every joint. Steps at a quarter and then a tenth of
 //! the rate bring it down into the minimum it is in; they do not move it to another one.
 
@@ -35,9 +36,9 @@ pub struct PolishReport {
 
 impl PoseFit {
     /// Polishes the current state: `steps` unblurred steps, the first half (rounded down) at
-    /// [`POLISH_FIRST_RATE`] times the fit's learning rate ([`PoseFit::learning_rate`]) and the
-    /// rest at [`POLISH_SECOND_RATE`] times it, with the fit's pose prior, nuisances and
-    /// self-intersection check as any step. The fit then ends where the steps ended if its energy
+    /// [`POLISH_FIRST_RATE`] times the fit's learning rate ([`PoseFit::learning_rate`], the pose's
+    /// and shape's) and the rest at [`POLISH_SECOND_RATE`] times it, with the fit's pose prior,
+    /// nuisances (at their own rates, unchanged) and self-intersection check as any step. The fit then ends where the steps ended if its energy
     /// ([`PoseFit::energy`]) is lower there than where they started, and otherwise goes back to
     /// its state before them ([`PoseFit::set_state`]). The learning rate is the fit's again
     /// after, and the blur 0. `on_step` sees the fit after every step, numbered from 1, with no
