@@ -36,11 +36,12 @@ pub struct PolishReport {
 
 impl PoseFit {
     /// Polishes the current state: `steps` unblurred steps, the first half (rounded down) at
-    /// [`POLISH_FIRST_RATE`] times the fit's learning rate ([`PoseFit::learning_rate`], the pose's
-    /// and shape's) and the rest at [`POLISH_SECOND_RATE`] times it, with the fit's pose prior,
-    /// nuisances (at their own rates, unchanged) and self-intersection check as any step. The fit then ends where the steps ended if its energy
-    /// ([`PoseFit::energy`]) is lower there than where they started, and otherwise goes back to
-    /// its state before them ([`PoseFit::set_state`]). The learning rate is the fit's again
+    /// [`POLISH_FIRST_RATE`] times the fit's learning rate ([`PoseFit::learning_rate`], the
+    /// pose's and shape's) and the rest at [`POLISH_SECOND_RATE`] times it, with the fit's pose
+    /// prior, nuisances (at their own rates, unchanged) and self-intersection check as any step.
+    /// The fit then ends where the steps ended if its energy ([`PoseFit::energy`]) is lower
+    /// there than where they started, and otherwise goes back to its state
+    /// before them ([`PoseFit::set_state`]), bit for bit. The learning rate is the fit's again
     /// after, and the blur 0. `on_step` sees the fit after every step, numbered from 1, with no
     /// hypothesis and blur 0; [`ControlFlow::Break`] ends the steps there (the same comparison
     /// follows). Errors (and stops) on the first step that errors, the state then where that step
