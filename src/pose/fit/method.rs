@@ -119,8 +119,7 @@ pub fn fit(
     } else {
         None
     };
-    let cancelled =
-        first.cancelled() || restart.as_ref().is_some_and(|r| r.runs.iter().any(|run| run.energy.is_none()));
+    let cancelled = first.cancelled() || restart.as_ref().is_some_and(RestartReport::cancelled);
     let polish = if options.polish_steps > 0 && !cancelled {
         let offset = first.steps() + restart.as_ref().map_or(0, |r| r.steps());
         let report = fit.polish(options.polish_steps, |fit, progress| {

@@ -19,16 +19,23 @@ pub(super) struct Pass {
 }
 
 impl Pass {
-    /// Whether the run, or one of the runs from its crossed legs, was cancelled.
+    /// Whether the run, or one of the runs from its crossed legs, was cancelled
+    /// ([`pass_cancelled`]).
     pub(super) fn cancelled(&self) -> bool {
-        self.report.stop == Stop::Cancelled
-            || self.crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled))
+        pass_cancelled(&self.report, self.crossed_legs.as_ref())
     }
 
     /// Adam steps of the pass, the runs from its crossed legs included.
     pub(super) fn steps(&self) -> u32 {
         self.report.steps + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
     }
+}
+
+/// Whether a pass (the first, or a restart's) with this run's `report` and these
+/// `crossed_legs` was cancelled: the run, or one of the runs from its crossed legs.
+pub(super) fn pass_cancelled(report: &RunReport, crossed_legs: Option<&CrossedLegsReport>) -> bool {
+    report.stop == Stop::Cancelled
+        || crossed_legs.is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled))
 }
 
 /// One pass from `starts` (the outline's rate at the start `outline_rate`): the run and its

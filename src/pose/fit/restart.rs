@@ -7,7 +7,7 @@
 
 use std::ops::ControlFlow;
 
-use super::pass::{run_pass, Pass};
+use super::pass::{pass_cancelled, run_pass, Pass};
 use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Schedule, Stop, SwapReport};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
@@ -146,12 +146,23 @@ impl RestartRun {
     pub fn steps(&self) -> u32 {
         self.report.steps + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
     }
+
+    /// Whether the restart's run, or one of the runs from its crossed legs, was cancelled
+    /// (the fit then ran no later restart, and no polish).
+    pub fn cancelled(&self) -> bool {
+        pass_cancelled(&self.report, self.crossed_legs.as_ref())
+    }
 }
 
 impl RestartReport {
     /// Adam steps of all the restarts.
     pub fn steps(&self) -> u32 {
         self.runs.iter().map(RestartRun::steps).sum()
+    }
+
+    /// Whether one of the restarts was cancelled ([`RestartRun::cancelled`]).
+    pub fn cancelled(&self) -> bool {
+        self.runs.iter().any(RestartRun::cancelled)
     }
 }
 
@@ -207,9 +218,9 @@ pub(super) fn restarts_after_first_pass(
         }
         tried.push((starts.clone(), with_proxy));
         let plan = RestartPlan { start: RestartStart::Family(family), schedule, starts, with_proxy, shape: None };
-        let (run, run_cancelled) = restart_run(fit, &restarted, plan, outline_rate, steps, on_step)?;
+        let run = restart_run(fit, &restarted, plan, outline_rate, steps, on_step)?;
         steps += run.steps();
-        cancelled = run_cancelled;
+        cancelled = run.cancelled();
         record(&mut outcome, &mut lowest, fit, run);
         if cancelled {
             break;
@@ -218,7 +229,7 @@ pub(super) fn restarts_after_first_pass(
     if thinned && options.thinned_final_run && !cancelled {
         let state = lowest.as_ref().map_or_else(|| first.clone(), |l| l.1.clone());
         if let Some(plan) = lowest_end_plan(fit, options, state)? {
-            let (run, _) = restart_run(fit, options, plan, outline_rate, steps, on_step)?;
+            let run = restart_run(fit, options, plan, outline_rate, steps, on_step)?;
             record(&mut outcome, &mut lowest, fit, run);
         }
     }
@@ -270,8 +281,8 @@ fn lowest_end_plan(fit: &mut PoseFit, options: &FitOptions, lowest: FitState) ->
 /// Runs `plan` as one pass of `options` (the outline's rate first set back to `outline_rate`
 /// where it is fitted; a plan off the proxy with the fit's coarse proxy set aside, put back
 /// after; a plan's own starting shape in place of the fit's initial one meanwhile), its steps
-/// following `offset` in the callback's [`Progress`]: the run, its energy where it was not
-/// cancelled, and whether it (or a run from its crossed legs) was cancelled.
+/// following `offset` in the callback's [`Progress`]: the run and its energy where it was not
+/// cancelled.
 fn restart_run(
     fit: &mut PoseFit,
     options: &FitOptions,
@@ -279,7 +290,7 @@ fn restart_run(
     outline_rate: f32,
     offset: u32,
     on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
-) -> Result<(RestartRun, bool)> {
+) -> Result<RestartRun> {
     if options.fit_outline {
         fit.set_outline_rate(outline_rate)?;
     }
@@ -294,11 +305,9 @@ fn restart_run(
     if let Some(proxy) = taken {
         fit.put_coarse_proxy(proxy);
     }
-    let pass = pass?;
-    let cancelled = pass.cancelled();
-    let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
-    let Pass { report, swap, crossed_legs } = pass;
-    Ok((RestartRun { start: plan.start, report, swap, crossed_legs, energy }, cancelled))
+    let Pass { report, swap, crossed_legs } = pass?;
+    let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    Ok(RestartRun { start: plan.start, report, swap, crossed_legs, energy })
 }
 
 /// Appends `run` (just ended: the fit is at its end) to `outcome`, and where it ends below the

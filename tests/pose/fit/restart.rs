@@ -158,6 +158,18 @@ fn a_cancelled_restart_leaves_the_first_pass_and_a_bad_swing_is_an_error_before_
     assert_eq!(run.report.stop, Stop::Cancelled);
     assert_eq!((run.energy, restart.kept), (None, None));
     assert_eq!(energy(&mut fitted.fit), restart.first_energy, "back at the first pass's end");
+    // With the polish on, a fit cancelled in its restart is not polished after.
+    let polished = FitOptions { polish_steps: 6, ..short() };
+    let cancelled = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &polished, |_, p| {
+        if p.step == 20 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert!(cancelled.restart.expect("looked at").cancelled());
+    assert_eq!(cancelled.polish, None);
     for bad in [f32::NAN, -0.1, f32::INFINITY] {
         let options = FitOptions { restart_arm_swing: bad, ..short() };
         let result = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, _| {
