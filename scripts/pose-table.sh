@@ -8,13 +8,14 @@
 #             wider:  the wider check on unseen seeds (1,610 fits)
 #             table2: paper Table 2 on the body and the figure (`--ablation 30`)
 #   --only    run only the rows whose label matches this extended regular expression (awk's)
-#   --jobs    fits run at once, one process each on one thread (default: the number of cores)
+#   --jobs    rows run at once, each one process on one thread, its seeds one after another
+#             (default: the number of cores)
 #   --out     where each row's full output goes, one file per row (default target/pose-table)
 #   --list    print the rows' labels and arguments and exit
 #
 # Rows with CesiumMan or RiggedFigure need DIFFSIL_ASSETS (the folder holding those .glb files);
-# without it they are skipped, and said so. Each fit runs on one thread (RAYON_NUM_THREADS=1), so
-# that fits running side by side do not share cores and their times compare. On this project's
+# without it they are skipped, and said so. Each row runs on one thread (RAYON_NUM_THREADS=1), so
+# that rows running side by side do not share cores and the times per fit compare. On this project's
 # 2-core VM the rows take about an hour with --jobs 2, the wider check about half an hour.
 set -euo pipefail
 cd "$(dirname "$0")/.."
