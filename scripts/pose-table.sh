@@ -16,7 +16,8 @@
 # Rows with CesiumMan or RiggedFigure need DIFFSIL_ASSETS (the folder holding those .glb files);
 # without it they are skipped, and said so. Each row runs on one thread (RAYON_NUM_THREADS=1), so
 # that rows running side by side do not share cores and the times per fit compare. On this project's
-# 2-core VM the rows take about an hour with --jobs 2, the wider check about half an hour.
+# 2-core VM, --jobs 2, the wider check took about half an hour; the rows, by their times per fit,
+# about an hour.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
