@@ -7,10 +7,7 @@ use std::ops::ControlFlow;
 
 use super::call::{go_on, renderer};
 use super::{fit_from_rest, scene};
-use diffsil::pose::fit::{
-    fit, CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart, FitOptions, PoseFit, RestartFamily,
-    RestartReport, RestartRun, RestartStart, RunReport, Stop, POLISH_FIRST_RATE, POLISH_SECOND_RATE,
-};
+use diffsil::pose::fit::{fit, FitOptions, PoseFit, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 use diffsil::pose::skin::Pose;
 use diffsil::Vec3;
 
@@ -115,44 +112,4 @@ fn fit_polishes_last_and_numbers_the_polish_steps_after_the_runs() {
     assert!(end <= report.energy_before);
     assert_eq!(end, if report.kept { report.energy_after } else { report.energy_before });
     assert_eq!(FitOptions::default().polish_steps, FitOptions::POLISH_STEPS);
-}
-
-#[test]
-fn a_restart_counts_as_cancelled_where_a_run_from_its_crossed_legs_was() {
-    let report = |stop| RunReport { steps: 3, hypothesis_energies: vec![1.0], chosen: 0, energy: 1.0, stop };
-    let crossed = |stop| CrossedLegsReport {
-        fitted_energy: 1.0,
-        start_energy: 2.0,
-        refined_energy: None,
-        changed_ratio: 1.0,
-        changed_excess: 0.0,
-        runs: vec![CrossedRun { start: CrossedRunStart::AboutCrossed, report: report(stop), swap: None, energy: None }],
-        end: CrossedLegsEnd::FirstRun,
-    };
-    let restart = |stop, crossed_legs| RestartRun {
-        start: RestartStart::Family(RestartFamily::swing(0.3, 0.4)),
-        report: report(stop),
-        swap: None,
-        crossed_legs,
-        energy: Some(1.0),
-    };
-    let cases = [
-        (restart(Stop::Finished, None), false),
-        (restart(Stop::Converged, Some(crossed(Stop::Finished))), false),
-        (restart(Stop::Cancelled, None), true),
-        // The restart's own run ended (it has an energy), a run from its crossed legs did not.
-        (restart(Stop::Finished, Some(crossed(Stop::Cancelled))), true),
-    ];
-    for (run, cancelled) in cases {
-        assert_eq!(run.cancelled(), cancelled, "{run:?}");
-        let first = restart(Stop::Finished, None);
-        let report = RestartReport {
-            misfit_blocks: vec![0],
-            thinned: true,
-            first_energy: 1.0,
-            runs: vec![first, run],
-            kept: None,
-        };
-        assert_eq!(report.cancelled(), cancelled);
-    }
 }

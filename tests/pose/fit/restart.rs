@@ -3,7 +3,7 @@
 //! runs the method again from the arms swung, and the fit ends at the lower energy; where the
 //! targets look thinned (the fitted outline near −1), the method runs again from each family of
 //! starting poses, then once from the lowest end without the coarsest stage, and the fit ends at
-//! the lowest.
+//! the lowest. A restart counts as cancelled where its run or a run from its crossed legs was.
 //!
 //! The polish that ends a fit (`FitOptions::polish_steps`) is off here: these tests compare where
 //! the runs end with where the fit ends (`polish.rs` tests the polish after them).
@@ -12,7 +12,8 @@ use std::ops::ControlFlow;
 
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
-    fit, framing_cameras, misfit_blocks, random_pose, FitOptions, PoseFit, RestartFamily, RestartStart, Schedule, Stop,
+    fit, framing_cameras, misfit_blocks, random_pose, CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart,
+    FitOptions, PoseFit, RestartFamily, RestartReport, RestartRun, RestartStart, RunReport, Schedule, Stop,
 };
 use diffsil::pose::skin::{MorphTargets, SkinnedMesh};
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
@@ -446,4 +447,44 @@ fn the_last_thinned_run_of_a_shape_fit_starts_from_the_lowest_ends_shape() {
         off_by <= options.learning_rate * 1.001,
         "the last run's first step {shape:?} is not one step from the lowest end's shape {lowest:?}"
     );
+}
+
+#[test]
+fn a_restart_counts_as_cancelled_where_a_run_from_its_crossed_legs_was() {
+    let report = |stop| RunReport { steps: 3, hypothesis_energies: vec![1.0], chosen: 0, energy: 1.0, stop };
+    let crossed = |stop| CrossedLegsReport {
+        fitted_energy: 1.0,
+        start_energy: 2.0,
+        refined_energy: None,
+        changed_ratio: 1.0,
+        changed_excess: 0.0,
+        runs: vec![CrossedRun { start: CrossedRunStart::AboutCrossed, report: report(stop), swap: None, energy: None }],
+        end: CrossedLegsEnd::FirstRun,
+    };
+    let restart = |stop, crossed_legs| RestartRun {
+        start: RestartStart::Family(RestartFamily::swing(0.3, 0.4)),
+        report: report(stop),
+        swap: None,
+        crossed_legs,
+        energy: Some(1.0),
+    };
+    let cases = [
+        (restart(Stop::Finished, None), false),
+        (restart(Stop::Converged, Some(crossed(Stop::Finished))), false),
+        (restart(Stop::Cancelled, None), true),
+        // The restart's own run ended (it has an energy), a run from its crossed legs did not.
+        (restart(Stop::Finished, Some(crossed(Stop::Cancelled))), true),
+    ];
+    for (run, cancelled) in cases {
+        assert_eq!(run.cancelled(), cancelled, "{run:?}");
+        let first = restart(Stop::Finished, None);
+        let report = RestartReport {
+            misfit_blocks: vec![0],
+            thinned: true,
+            first_energy: 1.0,
+            runs: vec![first, run],
+            kept: None,
+        };
+        assert_eq!(report.cancelled(), cancelled);
+    }
 }
