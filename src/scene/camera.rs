@@ -237,6 +237,61 @@ impl Camera {
         Ok(camera)
     }
 
+    /// The camera of this one's image downsampled by `factor` ([`Image::downsampled`](crate::Image::downsampled)):
+    /// `width / factor × height / factor` pixels (the partial blocks on the right and at the
+    /// bottom left out), the same pose, near and far, and a projection that lands every point at
+    /// its old pixel coordinates divided by `factor` (up to rounding): a [`Projection::Pinhole`]'s
+    /// `fx, fy, cx, cy` divided by `factor`; a [`Projection::Perspective`] kept as it is when
+    /// `factor` divides both sides, otherwise the equivalent pinhole (its principal point is no
+    /// longer the centre of the smaller image); a [`Projection::Orthographic`] kept when `factor`
+    /// divides both sides.
+    ///
+    /// ```
+    /// use diffsil::{Camera, Vec3};
+    ///
+    /// let k = [[700.0, 0.0, 317.0], [0.0, 700.0, 245.0], [0.0, 0.0, 1.0]];
+    /// let r = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    /// let camera = Camera::from_opencv(k, r, [0.0, 0.0, 3.0], 640, 480).unwrap();
+    /// let small = camera.downsampled(5).unwrap();
+    /// assert_eq!((small.width, small.height), (128, 96));
+    /// let p = Vec3::new(0.2, -0.1, 0.4);
+    /// let (a, b) = (camera.params().project(p).0, small.params().project(p).0);
+    /// assert!((a / 5.0 - b).length() < 1e-4);
+    /// ```
+    ///
+    /// Errors: [`Error::InvalidSettings`] for a `factor` of 0 or larger than a side, or an
+    /// orthographic camera whose sides `factor` does not divide (its image centre would move,
+    /// which that projection cannot express).
+    pub fn downsampled(&self, factor: u32) -> Result<Camera> {
+        if factor == 0 || factor > self.width || factor > self.height {
+            return Err(Error::InvalidSettings(format!(
+                "downsampling factor {factor} for a {}x{} camera: it must be at least 1 and at most the width \
+                 and the height",
+                self.width, self.height
+            )));
+        }
+        let divides = self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor);
+        let k = factor as f32;
+        let projection = match self.projection {
+            Projection::Pinhole { fx, fy, cx, cy } => {
+                Projection::Pinhole { fx: fx / k, fy: fy / k, cx: cx / k, cy: cy / k }
+            }
+            Projection::Perspective { .. } | Projection::Orthographic { .. } if divides => self.projection,
+            Projection::Perspective { .. } => {
+                let [fx, fy, cx, cy] = self.intrinsics();
+                Projection::Pinhole { fx: fx / k, fy: fy / k, cx: cx / k, cy: cy / k }
+            }
+            Projection::Orthographic { .. } => {
+                return Err(Error::InvalidSettings(format!(
+                    "an orthographic {}x{} camera cannot be downsampled by {factor}: the factor must divide \
+                     the width and the height",
+                    self.width, self.height
+                )))
+            }
+        };
+        Ok(Camera { projection, width: self.width / factor, height: self.height / factor, ..*self })
+    }
+
     /// This camera posed by `extrinsics` (OpenCV axes), with `eye`, `target` and `up` set to the
     /// equivalent look-at (eye at the camera centre, target one unit along the optical axis, up
     /// = −y of the camera).

@@ -75,6 +75,45 @@ impl Image {
         self.data.get(row as usize * self.width as usize + column as usize).copied()
     }
 
+    /// This image at `1/factor` of its resolution: each new pixel the mean of a `factor × factor`
+    /// block, the `width % factor` columns on the right and `height % factor` rows at the bottom
+    /// (the partial blocks) left out. Pixel `(i, j)` then covers `[j, j+1] × [i, i+1]` of the old
+    /// image's screen space divided by `factor`, the same area as its block: a coverage image
+    /// downsampled is the coverage at the lower resolution (up to rounding), so targets at a
+    /// camera's resolution go with [`Camera::downsampled`](crate::Camera::downsampled) cameras.
+    /// The sums are taken in f64.
+    ///
+    /// ```
+    /// use diffsil::Image;
+    ///
+    /// let image = Image::from_vec(5, 2, vec![1.0, 0.0, 0.5, 0.5, 9.0, 0.0, 1.0, 0.5, 0.5, 9.0]).unwrap();
+    /// let half = image.downsampled(2).unwrap(); // the fifth column is a partial block: left out
+    /// assert_eq!((half.width(), half.height(), half.data()), (2, 1, &[0.5, 0.5][..]));
+    /// ```
+    ///
+    /// Errors: [`Error::InvalidSettings`] for a `factor` of 0, or one larger than the width or
+    /// the height (nothing would be left).
+    pub fn downsampled(&self, factor: u32) -> Result<Image> {
+        if factor == 0 || factor > self.width || factor > self.height {
+            return Err(Error::InvalidSettings(format!(
+                "downsampling factor {factor} for a {}x{} image: it must be at least 1 and at most the width \
+                 and the height",
+                self.width, self.height
+            )));
+        }
+        let (width, height) = (self.width / factor, self.height / factor);
+        let (k, stride) = (factor as usize, self.width as usize);
+        let scale = 1.0 / (k * k) as f64;
+        let mut data = Vec::with_capacity(width as usize * height as usize);
+        for i in 0..height as usize {
+            for j in 0..width as usize {
+                let block = (0..k).flat_map(|r| &self.data[(i * k + r) * stride + j * k..][..k]);
+                data.push((block.map(|&v| v as f64).sum::<f64>() * scale) as f32);
+            }
+        }
+        Ok(Image { width, height, data })
+    }
+
     /// Errors with [`Error::SizeMismatch`] unless this image is `width × height`.
     pub fn expect_size(&self, what: &'static str, width: u32, height: u32) -> Result<()> {
         if self.width != width || self.height != height {

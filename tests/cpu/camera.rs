@@ -271,3 +271,134 @@ fn retract_takes_the_step_the_gradient_describes() {
     let actual = loss(&transform) - loss(&transform.retract(&step));
     assert!(relative(actual, predicted) < 2e-2, "decrease {actual} vs predicted {predicted}");
 }
+
+// Downsampling: `Camera::downsampled` with `Image::downsampled`. F×F samples of each pixel of a
+// `k`-times finer image, averaged over `k × k` pixels, sit exactly where the (k·F)² samples of the
+// coarse pixel sit, so a render downsampled is the render of the downsampled camera at k·F, up to
+// the samples within a snap of an edge (the forward snaps vertices to a fixed-point grid of each
+// image's own pixels, so the two grids differ).
+
+/// The blob seen by one camera of each projection (look-at perspective, pinhole and OpenCV
+/// cameras), at `width × height`.
+fn downsampling_cameras(width: u32, height: u32) -> Vec<Camera> {
+    let (eye, target) = (Vec3::new(0.3, 0.4, 3.0), Vec3::new(0.05, -0.02, 0.0));
+    vec![
+        Camera::perspective(eye, target, 0.9, width, height),
+        Camera::pinhole(
+            eye,
+            target,
+            Vec2::new(1.1, 0.9) * width as f32,
+            Vec2::new(0.47, 0.55) * Vec2::new(width as f32, height as f32),
+            width,
+            height,
+        ),
+        Camera::from_opencv(
+            [
+                [0.9 * width as f32, 0.0, 0.52 * width as f32],
+                [0.0, 0.95 * width as f32, 0.46 * height as f32],
+                [0.0, 0.0, 1.0],
+            ],
+            R,
+            [0.1, -0.05, 3.2],
+            width,
+            height,
+        )
+        .unwrap(),
+    ]
+}
+
+/// The coverage of `mesh` seen by `cameras` at F = `supersample`.
+fn coverage(mesh: &diffsil::Mesh, cameras: &[Camera], supersample: u32) -> Vec<Image> {
+    let mut renderer = Renderer::new(RenderSettings { supersample, ..RenderSettings::default() }).unwrap();
+    renderer.render(mesh, cameras).unwrap().images().to_vec()
+}
+
+#[test]
+fn a_downsampled_render_is_the_downsampled_cameras_render() {
+    let mesh = blob_3d().mesh;
+    // 2 and 4 divide 48 × 40; 4 leaves a partial block of 70 × 45 (the margins cut, and the
+    // perspective camera becomes a pinhole); 3 is not a power of two.
+    for (width, height, factor) in [(48, 40, 2), (48, 40, 4), (70, 45, 4), (70, 45, 3), (61, 50, 3)] {
+        let cameras = downsampling_cameras(width, height);
+        let fine = coverage(&mesh, &cameras, 4);
+        let small: Vec<Camera> = cameras.iter().map(|c| c.downsampled(factor).unwrap()).collect();
+        let coarse = coverage(&mesh, &small, 4 * factor);
+        for (view, (fine, coarse)) in fine.iter().zip(&coarse).enumerate() {
+            let down = fine.downsampled(factor).unwrap();
+            assert_eq!((down.width(), down.height()), (width / factor, height / factor));
+            assert_eq!((coarse.width(), coarse.height()), (width / factor, height / factor));
+            let inside = coarse.data().iter().filter(|v| **v > 0.5).count();
+            assert!(inside > 10 && inside < coarse.data().len(), "view {view} sees the blob's outline");
+            let samples = (4 * factor).pow(2) as f32;
+            let differences: Vec<f32> =
+                down.data().iter().zip(coarse.data()).map(|(a, b)| (a - b).abs()).filter(|d| *d > 0.0).collect();
+            let worst = differences.iter().copied().fold(0.0, f32::max);
+            assert!(worst <= 2.5 / samples, "{width}x{height} by {factor}, view {view}: {worst}");
+            // Only where an edge passes, about a sample at most.
+            let outline = coarse.data().iter().filter(|v| **v > 0.0 && **v < 1.0).count();
+            let total: f32 = differences.iter().sum();
+            assert!(total <= outline as f32 / samples, "{width}x{height} by {factor}, view {view}: {differences:?}");
+        }
+    }
+    // Orthographic cameras: kept where the factor divides the sides.
+    let ortho = Camera::orthographic(Vec3::new(0.2, 0.1, 3.0), Vec3::ZERO, 2.4, 48, 40);
+    let down = ortho.downsampled(4).unwrap();
+    assert_eq!(down.projection, ortho.projection);
+    let (fine, coarse) = (coverage(&mesh, &[ortho], 4), coverage(&mesh, &[down], 16));
+    let down = fine[0].downsampled(4).unwrap();
+    let worst = down.data().iter().zip(coarse[0].data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+    assert!(worst <= 2.5 / 256.0, "{worst}");
+}
+
+#[test]
+fn downsampling_keeps_the_pose_and_scales_the_intrinsics() {
+    let camera = Camera::from_opencv(K, R, T, 64, 48).unwrap();
+    let small = camera.downsampled(4).unwrap();
+    assert_eq!(
+        (small.extrinsics, small.eye, small.near, small.far),
+        (camera.extrinsics, camera.eye, camera.near, camera.far)
+    );
+    // (fx, fy, cx, cy) = (100, 80, 30.5, 20.5) in diffsil's pixels, divided by 4.
+    assert_eq!(small.intrinsics(), [25.0, 20.0, 7.625, 5.125]);
+    // A perspective camera whose sides the factor does not divide: a pinhole with the old image
+    // centre divided by the factor, not the new centre.
+    let perspective = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.9, 70, 45);
+    let small = perspective.downsampled(4).unwrap();
+    let [f, _, _, _] = perspective.intrinsics();
+    assert_eq!(small.projection, Projection::Pinhole { fx: f / 4.0, fy: f / 4.0, cx: 8.75, cy: 5.625 });
+    assert_eq!((small.width, small.height), (17, 11));
+    // Factor 1 changes nothing.
+    assert_eq!(camera.downsampled(1).unwrap(), camera);
+    assert_eq!(perspective.downsampled(1).unwrap(), perspective);
+}
+
+#[test]
+fn bad_downsampling_factors_are_errors() {
+    let camera = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.9, 70, 45);
+    let image = Image::filled(70, 45, 0.5);
+    for factor in [0, 46, 71, u32::MAX] {
+        assert!(matches!(camera.downsampled(factor), Err(Error::InvalidSettings(_))), "camera by {factor}");
+        assert!(matches!(image.downsampled(factor), Err(Error::InvalidSettings(_))), "image by {factor}");
+    }
+    // The largest factor leaves one pixel.
+    assert_eq!(image.downsampled(45).unwrap(), Image::filled(1, 1, 0.5));
+    assert_eq!((camera.downsampled(45).unwrap().width, camera.downsampled(45).unwrap().height), (1, 1));
+    let ortho = Camera::orthographic(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 2.0, 70, 45);
+    let e = ortho.downsampled(4).unwrap_err().to_string();
+    assert!(e.contains("orthographic") && e.contains("divide"), "{e}");
+    assert!(ortho.downsampled(5).is_ok());
+}
+
+#[test]
+fn a_downsampled_image_averages_its_blocks() {
+    // 5 × 3 by 2: two blocks, the last column and row left out.
+    let data: Vec<f32> = (0..15).map(|v| v as f32).collect();
+    let image = Image::from_vec(5, 3, data).unwrap();
+    let down = image.downsampled(2).unwrap();
+    assert_eq!((down.width(), down.height()), (2, 1));
+    assert_eq!(down.data(), &[(0.0 + 1.0 + 5.0 + 6.0) / 4.0, (2.0 + 3.0 + 7.0 + 8.0) / 4.0]);
+    assert_eq!(image.downsampled(1).unwrap(), image);
+    // Sums in f64: a block of values an f32 sum would round loses nothing.
+    let big = Image::from_vec(2, 2, vec![1e8, 1.0, 1.0, 1.0]).unwrap();
+    assert_eq!(big.downsampled(2).unwrap().data(), &[((1e8 + 3.0) / 4.0) as f32]);
+}
