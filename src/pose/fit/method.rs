@@ -57,6 +57,12 @@ pub struct Fitted {
 /// ([`FitOptions::polish_steps`]): a few unblurred steps at a falling learning rate, kept where
 /// they end lower.
 ///
+/// The method was tuned on targets where the body is 50–70 pixels tall; masks at a camera's
+/// own resolution are best downsampled to that first, with their cameras:
+/// [`downsample_factor`](super::downsample_factor) with [`FIT_SUBJECT_HEIGHT`](super::FIT_SUBJECT_HEIGHT),
+/// [`Image::downsampled`](crate::Image::downsampled), [`Camera::downsampled`](crate::Camera::downsampled)
+/// (what that saves and gains: [`downsample_factor`](super::downsample_factor)).
+///
 /// ```
 /// use std::ops::ControlFlow;
 /// use diffsil::pose::fit::{fit, framing_cameras, FitOptions};

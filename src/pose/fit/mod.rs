@@ -224,6 +224,7 @@ mod outline;
 mod pass;
 mod polish;
 mod poses;
+mod resolution;
 mod restart;
 mod schedule;
 
@@ -238,5 +239,6 @@ pub use method::{fit, Fitted};
 pub use options::FitOptions;
 pub use polish::{PolishReport, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses};
+pub use resolution::{downsample_factor, subject_height, FIT_SUBJECT_HEIGHT};
 pub use restart::{misfit_blocks, RestartFamily, RestartReport, RestartRun, RestartStart};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};

@@ -12,6 +12,7 @@ mod outline;
 mod polish;
 mod prior_scale;
 mod proxy;
+mod resolution;
 mod restart;
 mod swap;
 mod warmup;

@@ -1,0 +1,69 @@
+//! The resolution a fit works at (`subject_height`, `downsample_factor`): hand-made masks, and
+//! the framing the README's tables use, which needs no downsampling.
+
+use diffsil::pose::fit::{downsample_factor, framing_ring, subject_height, FIT_SUBJECT_HEIGHT, RAISED_ELEVATION_DEG};
+use diffsil::pose::makehuman_body;
+use diffsil::pose::skin::Pose;
+use diffsil::{Image, Mesh, RenderSettings, Renderer};
+
+/// A `width × height` mask with the rows `rows` set to `value` in column 1.
+fn mask(width: u32, height: u32, rows: std::ops::Range<usize>, value: f32) -> Image {
+    let mut image = Image::filled(width, height, 0.0);
+    for row in rows {
+        image.data_mut()[row * width as usize + 1] = value;
+    }
+    image
+}
+
+#[test]
+fn the_subject_spans_the_rows_holding_a_pixel_above_one_half() {
+    assert_eq!(subject_height(&Image::filled(8, 6, 0.0)), 0);
+    assert_eq!(subject_height(&mask(8, 6, 2..3, 1.0)), 1);
+    assert_eq!(subject_height(&mask(8, 12, 3..10, 0.6)), 7);
+    assert_eq!(subject_height(&mask(8, 12, 3..10, 0.5)), 0, "0.5 is not above one half");
+    // A gap inside the subject counts: the rows from the first to the last.
+    let mut gap = mask(8, 12, 1..3, 1.0);
+    gap.data_mut()[10 * 8 + 5] = 1.0;
+    assert_eq!(subject_height(&gap), 10);
+    assert_eq!(subject_height(&Image::filled(3, 4, 1.0)), 4);
+}
+
+#[test]
+fn the_factor_keeps_the_tallest_subject_at_least_the_height_asked_for() {
+    // 330 pixels tall: 5 × 66.
+    let person = mask(640, 480, 70..400, 1.0);
+    assert_eq!(downsample_factor(std::slice::from_ref(&person), 64), 5);
+    assert_eq!(downsample_factor(std::slice::from_ref(&person), 66), 5);
+    assert_eq!(downsample_factor(std::slice::from_ref(&person), 67), 4);
+    // The tallest of several decides; shorter than asked, or no height asked: 1 (never upsampled).
+    assert_eq!(downsample_factor(&[mask(640, 480, 0..100, 1.0), person.clone()], 64), 5);
+    assert_eq!(downsample_factor(&[mask(64, 64, 5..60, 1.0)], FIT_SUBJECT_HEIGHT), 1);
+    assert_eq!(downsample_factor(std::slice::from_ref(&person), 0), 1);
+    assert_eq!(downsample_factor(&[], 64), 1);
+    assert_eq!(downsample_factor(&[Image::filled(640, 480, 0.0)], 64), 1);
+    // Never more than a side of the smallest mask: every downsampled mask keeps a pixel.
+    assert_eq!(downsample_factor(&[mask(3, 1000, 0..1000, 1.0)], 1), 3);
+    assert_eq!(downsample_factor(&[person, Image::filled(2, 2, 0.0)], 64), 2);
+}
+
+/// The README's tables fit the MakeHuman body at 64², seen from the raised ring: there the body
+/// is as tall as the method wants, and nothing is downsampled.
+#[test]
+fn the_tables_framing_needs_no_downsampling() {
+    let model = makehuman_body().unwrap();
+    let rest =
+        Mesh::with_topology(model.skin(&Pose::rest(model.joint_count())).unwrap(), model.mesh.topology().clone())
+            .unwrap();
+    let cameras = framing_ring(&rest, 4, 64, RAISED_ELEVATION_DEG.to_radians());
+    let masks = Renderer::new(RenderSettings::default()).unwrap().render(&rest, &cameras).unwrap().images().to_vec();
+    let tallest = masks.iter().map(subject_height).max().unwrap();
+    assert!((50..=70).contains(&tallest), "the body is {tallest} pixels tall");
+    assert_eq!(downsample_factor(&masks, FIT_SUBJECT_HEIGHT), 1);
+    // The same rig at 4 times the resolution is brought back to it.
+    let large = framing_ring(&rest, 4, 256, RAISED_ELEVATION_DEG.to_radians());
+    let masks = Renderer::new(RenderSettings::default()).unwrap().render(&rest, &large).unwrap().images().to_vec();
+    let tallest_large = masks.iter().map(subject_height).max().unwrap();
+    assert!(tallest_large.abs_diff(4 * tallest) <= 4, "{tallest_large} pixels tall at 256², {tallest} at 64²");
+    assert_eq!(downsample_factor(&masks, FIT_SUBJECT_HEIGHT), tallest_large / FIT_SUBJECT_HEIGHT);
+    assert!(tallest_large / (tallest_large / FIT_SUBJECT_HEIGHT) >= FIT_SUBJECT_HEIGHT);
+}
