@@ -40,7 +40,7 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    fit, per_vertex_error, random_pose, CrossedLegsEnd, Fitted, LimbSwap, PoseFit, Progress, Stop,
+    downsample_factor, fit, per_vertex_error, random_pose, CrossedLegsEnd, Fitted, LimbSwap, PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -108,6 +108,13 @@ fn fit_seed(
         .enumerate()
         .map(|(v, t)| masks::apply(o.mask_noise, t, o.flip_fraction, o.seed * 1000 + v as u64))
         .collect();
+    // Where the subject is taller than `--fit-height`, the fit sees the masks downsampled.
+    let factor = downsample_factor(&targets, o.fit_height);
+    let targets = targets.iter().map(|t| t.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
+    let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
+    if factor > 1 && !quiet {
+        println!("fitting at {}x{} (the targets downsampled {factor}x)", cameras[0].width, cameras[0].height);
+    }
     let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
 
     let (fitted, seconds) =

@@ -240,6 +240,13 @@ pub struct Options {
     /// [0, 1] as coverage]
     #[arg(long, value_name = "X", value_parser = finite, requires = "targets")]
     pub threshold: Option<f32>,
+    /// Fit where the subject (the tallest rows of white in any target mask) is at least this
+    /// many pixels tall: masks and cameras downsampled by the largest whole factor that keeps it
+    /// so, e.g. `--targets` at a camera's resolution or `--resolution 480` (at 64² the body is
+    /// about 54 pixels tall: nothing changes); 0: at the masks' own resolution [default:
+    /// FIT_SUBJECT_HEIGHT = 64]
+    #[arg(long, value_name = "PX", default_value_t = diffsil::pose::fit::FIT_SUBJECT_HEIGHT)]
+    pub fit_height: u32,
     /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
     #[arg(skip)]
     pub truth: Option<Pose>,

@@ -25,10 +25,11 @@ pub fn save_comparison_sheets(
 }
 
 /// A picture a person can read: rows before/after, columns target | fitted | difference
-/// (red: target only, cyan: fitted only, white: both), each pixel drawn 4×4.
+/// (red: target only, cyan: fitted only, white: both), each pixel drawn 4×4 for images up to 64
+/// pixels, fewer times for larger ones (once from 256).
 pub fn comparison_sheet(target: &Image, before: &Image, after: &Image) -> image::RgbImage {
     let (w, h) = (target.width(), target.height());
-    let zoom = 4;
+    let zoom = (256 / w.max(h)).clamp(1, 4);
     let gap = 4;
     let mut sheet = image::RgbImage::from_pixel(3 * w * zoom + 2 * gap, 2 * h * zoom + gap, image::Rgb([60, 60, 60]));
     for (row, fitted) in [before, after].into_iter().enumerate() {

@@ -69,15 +69,16 @@ use serde_json::{json, Value};
 const SIZE: (u32, u32) = (40, 32);
 
 /// Three OpenCV cameras (`K`, `R` rows, `t`, as JSON) on a ring around `mesh`, looking at its
-/// centre, framing its height in about 3/4 of the image height.
-fn opencv_cameras(mesh: &Mesh) -> Vec<Value> {
+/// centre, framing its height in about 3/4 of the image height, `size` pixels.
+fn opencv_cameras(mesh: &Mesh, size: (u32, u32)) -> Vec<Value> {
     let (lo, hi) = mesh
         .positions()
         .iter()
         .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-    let (centre, size) = ((lo + hi) / 2.0, (hi - lo).max_element());
-    let distance = 3.0 * size;
-    let focal = 0.75 * SIZE.1 as f32 * distance / size;
+    let (width, height) = size;
+    let (centre, extent) = ((lo + hi) / 2.0, (hi - lo).max_element());
+    let distance = 3.0 * extent;
+    let focal = 0.75 * height as f32 * distance / extent;
     (0..3)
         .map(|k| {
             let azimuth = (k as f32 * 120.0 + 20.0).to_radians();
@@ -88,8 +89,8 @@ fn opencv_cameras(mesh: &Mesh) -> Vec<Value> {
             let y = z.cross(x);
             let t = [-x.dot(eye), -y.dot(eye), -z.dot(eye)];
             json!({
-                "width": SIZE.0, "height": SIZE.1,
-                "K": [[focal, 0.0, (SIZE.0 as f32 - 1.0) / 2.0 + 0.7], [0.0, focal * 1.05, (SIZE.1 as f32 - 1.0) / 2.0], [0.0, 0.0, 1.0]],
+                "width": width, "height": height,
+                "K": [[focal, 0.0, (width as f32 - 1.0) / 2.0 + 0.7], [0.0, focal * 1.05, (height as f32 - 1.0) / 2.0], [0.0, 0.0, 1.0]],
                 "R": [x.to_array(), y.to_array(), z.to_array()],
                 "t": t,
                 "far": 100.0,
@@ -99,20 +100,25 @@ fn opencv_cameras(mesh: &Mesh) -> Vec<Value> {
 }
 
 /// Writes the masks of the built-in figure in a random pose and `cameras.json` into a fresh
-/// folder; returns the mask paths and the JSON path.
+/// folder, [`SIZE`]; returns the mask paths and the JSON path.
 fn write_user_data() -> (Vec<PathBuf>, PathBuf) {
+    write_user_data_at(SIZE)
+}
+
+/// [`write_user_data`] with masks of `size` pixels.
+fn write_user_data_at(size: (u32, u32)) -> (Vec<PathBuf>, PathBuf) {
     let dir = crate::common::files::temp_dir();
     let model = builtin_figure();
     let rest =
         Mesh::with_topology(model.skin(&Pose::rest(model.joint_count())).unwrap(), model.mesh.topology().clone())
             .unwrap();
-    let specs = opencv_cameras(&rest);
+    let specs = opencv_cameras(&rest, size);
     let cameras: Vec<Camera> = specs
         .iter()
         .map(|c| {
             let m = |key: &str| serde_json::from_value::<[[f32; 3]; 3]>(c[key].clone()).unwrap();
             let t = serde_json::from_value::<[f32; 3]>(c["t"].clone()).unwrap();
-            Camera::from_opencv(m("K"), m("R"), t, SIZE.0, SIZE.1).unwrap()
+            Camera::from_opencv(m("K"), m("R"), t, size.0, size.1).unwrap()
         })
         .collect();
     let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
@@ -177,6 +183,30 @@ fn fits_the_users_masks_and_cameras_and_saves_the_result() {
     assert_ne!(pose, Pose::rest(model.joint_count()));
     // The command line runs the same path to the end.
     example::run(&o).unwrap();
+}
+
+/// Masks at a camera's resolution are fitted where the subject is about `--fit-height` pixels
+/// tall (downsampled with their cameras), and reported at their own size.
+#[test]
+fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
+    // The figure about 3/4 of 224 pixels tall: downsampled 2x (to 140 x 112) for 64 pixels.
+    let (masks, cameras) = write_user_data_at((280, 224));
+    let out = crate::common::files::temp_dir();
+    let o = user_options(&masks, &cameras, &["--iterations", "60", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.fit_height, diffsil::pose::fit::FIT_SUBJECT_HEIGHT);
+    let (model, _) = example::load_model(&o).unwrap();
+    let outcome = example::fit_user_data(&model, &o).unwrap();
+    assert_eq!((outcome.factor, outcome.fit_size), (2, (140, 112)));
+    let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / 3.0;
+    let (iou0, iou1) = (mean(&outcome.before), mean(&outcome.after));
+    assert!(iou1 > iou0 + 0.05 && iou1 > 0.75, "mean IoU at 280 x 224 {iou0:.3} -> {iou1:.3}");
+    // The pictures are the masks' own size: 3 x 2 images of 280 x 224, 4 pixels apart.
+    let sheet = diffsil::io::load_png_target(out.join("view0.png"), diffsil::io::TargetMode::Coverage).unwrap();
+    assert_eq!((sheet.width(), sheet.height()), (3 * 280 + 2 * 4, 2 * 224 + 4));
+    // `--fit-height 0`: the masks' own resolution.
+    let o = user_options(&masks, &cameras, &["--iterations", "3", "--fit-height", "0", "--out", out.to_str().unwrap()]);
+    let outcome = example::fit_user_data(&model, &o).unwrap();
+    assert_eq!((outcome.factor, outcome.fit_size), (1, (280, 224)));
 }
 
 #[test]
