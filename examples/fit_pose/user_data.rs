@@ -14,13 +14,19 @@
 //! `K`, `R` (world → camera rotation, rows) and `t` as OpenCV's `calibrateCamera`/`solvePnP` give
 //! them (pixel centres at integer coordinates; camera x right, y down, z forward), passed to
 //! `diffsil::Camera::from_opencv`; `near` and `far` are optional (default 0.01 and 1000, in the
-//! units of `t`).
+//! units of `t`). Lens distortion is not modelled: coefficients under `dist`, `distCoeffs`,
+//! `dist_coeffs`, `D` or `distortion` must be zeros (undistort the masks first, e.g. with
+//! OpenCV's `undistort`, and give the `K` they were undistorted to).
 
 use std::path::{Path, PathBuf};
 
 use diffsil::io::{load_png_target, TargetMode};
 use diffsil::{Camera, Image};
 use serde_json::Value;
+
+/// Names calibration files give lens distortion coefficients under: accepted when all zero,
+/// otherwise an error that says to undistort the masks first.
+const DISTORTION_KEYS: [&str; 5] = ["dist", "distCoeffs", "dist_coeffs", "D", "distortion"];
 
 /// Three numbers from `value` (a list of 3), if it is one.
 fn vector3(value: &Value) -> Option<[f32; 3]> {
@@ -55,7 +61,18 @@ fn pixels(value: Option<&Value>, what: &str) -> Result<u32, String> {
 /// One camera of the list.
 fn camera(value: &Value) -> Result<Camera, String> {
     let object = value.as_object().ok_or_else(|| format!("each camera must be an object, got {value}"))?;
-    for key in object.keys() {
+    for (key, value) in object {
+        if DISTORTION_KEYS.contains(&key.as_str()) {
+            // Zero coefficients are no distortion; others would move the mask's pixels.
+            let zeros = value.as_array().is_some_and(|v| v.iter().all(|x| x.as_f64() == Some(0.0)));
+            if zeros {
+                continue;
+            }
+            return Err(format!(
+                "lens distortion (\"{key}\": {value}) is not modelled: undistort the masks first (e.g. OpenCV's \
+                 undistort) and give the K they were undistorted to"
+            ));
+        }
         if !["width", "height", "K", "R", "t", "near", "far"].contains(&key.as_str()) {
             return Err(format!("unknown key \"{key}\" (keys: width, height, K, R, t, near, far)"));
         }

@@ -234,6 +234,8 @@ fn bad_user_data_are_clear_errors() {
         ("R", json!([[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), "orthonormal"),
         ("R", json!([[1.0, 0.0], [0.0, 1.0]]), "\"R\" must be 3 rows of 3 numbers"),
         ("t", json!([0.0, "x", 1.0]), "\"t\" must be 3 numbers"),
+        ("distCoeffs", json!([0.1, -0.02, 0.0, 0.0, 0.0]), "undistort the masks first"),
+        ("dist", json!("none"), "undistort the masks first"),
     ] {
         let mut bad = specs.clone();
         bad[1]["width"] = json!(SIZE.0);
@@ -243,6 +245,14 @@ fn bad_user_data_are_clear_errors() {
         let e = error(&user_options(&masks, &path, &[]));
         assert!(e.contains("bad.json: camera 2:") && e.contains(says), "{key}: {e}");
     }
+
+    // Zero distortion coefficients are no distortion.
+    let mut undistorted = specs.clone();
+    undistorted[1]["width"] = json!(SIZE.0);
+    undistorted[0]["dist"] = json!([0.0, 0.0, 0.0, 0.0, 0.0]);
+    let path = cameras.with_file_name("undistorted.json");
+    std::fs::write(&path, serde_json::to_string(&undistorted).unwrap()).unwrap();
+    assert_eq!(user_data::load_cameras(&path).unwrap(), user_data::load_cameras(&cameras).unwrap());
 
     // The two options come together.
     let e = example::Options::try_parse_from(["fit_pose", "--targets", "a.png"]).unwrap_err().to_string();
