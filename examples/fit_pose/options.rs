@@ -247,6 +247,13 @@ pub struct Options {
     /// FIT_SUBJECT_HEIGHT = 64]
     #[arg(long, value_name = "PX", default_value_t = diffsil::pose::fit::FIT_SUBJECT_HEIGHT)]
     pub fit_height: u32,
+    /// Start `--targets` from the model's rest pose where it was built, instead of moved to
+    /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
+    #[arg(long, requires = "targets")]
+    pub no_placement: bool,
+    /// The pose a fit starts from, when not the rest pose (set by the placement of `--targets`).
+    #[arg(skip)]
+    pub initial: Option<Pose>,
     /// The ground-truth pose, when not drawn from the seed (set by `--motion`).
     #[arg(skip)]
     pub truth: Option<Pose>,
@@ -291,6 +298,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
             thinned_restarts: Vec::new(),
             thinned_final_run: false,
             polish_steps: 0,
+            initial: o.initial.clone(),
             ..defaults
         };
     }
@@ -327,6 +335,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
         thinned_restarts: if o.no_thinned_restarts { Vec::new() } else { defaults.thinned_restarts.clone() },
         thinned_final_run: defaults.thinned_final_run && !o.no_thinned_final_run,
         polish_steps: o.polish_steps.unwrap_or(defaults.polish_steps),
+        initial: o.initial.clone(),
         ..defaults
     }
 }

@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use diffsil::pose::fit::{downsample_factor, subject_height, PoseFit};
+use diffsil::pose::fit::{downsample_factor, subject_height, triangulate_masks, PoseFit};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Mesh, RenderSettings, Renderer};
+use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 use super::{fit_with_progress, sheet, user_data, Options};
 
@@ -42,6 +42,64 @@ pub struct DataOutcome {
     pub seconds: f64,
 }
 
+/// `rest` moved (its root translation) to where the masks place the body: where the rays through
+/// the masks' centres of coverage meet ([`triangulate_masks`]), corrected once so that the
+/// model's own silhouettes there triangulate to the same point (a silhouette's centre is not the
+/// body's centre, and the bias is about the same for the model as for the subject); printed,
+/// with a warning where the masks' subject looks more than twice as tall or as short as the model
+/// there (cameras in other units than the model's). `rest` itself when the point is not
+/// determined.
+fn placed_start(
+    model: &SkinnedMesh,
+    renderer: &mut Renderer,
+    cameras: &[Camera],
+    masks: &[Image],
+    rest: Pose,
+) -> Result<Pose, Box<dyn std::error::Error>> {
+    let Some(point) = triangulate_masks(cameras, masks)? else {
+        println!("placement: the masks' centres do not fix a point (fewer than two views see the subject); starting at the rest pose");
+        return Ok(rest);
+    };
+    let (lo, hi) = bounds(&model.skin(&rest)?);
+    let centre = (lo + hi) * 0.5;
+    let mut start = Pose { translation: rest.translation + (point - centre), ..rest.clone() };
+    let there = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
+    if let Some(seen) = triangulate_masks(cameras, renderer.render(&there, cameras)?.images())? {
+        start.translation += point - seen;
+    }
+    println!(
+        "placement: the model moved by {:.3} from its rest position, to where the masks' centres meet ({point:.3})",
+        start.translation - rest.translation
+    );
+    // The subject's height in world units as each perspective view sees it at that depth.
+    let mut heights: Vec<f32> = cameras
+        .iter()
+        .zip(masks)
+        .filter_map(|(camera, mask)| {
+            let p = camera.params();
+            let depth = -(glam::Vec4::from(p.row2).dot(point.extend(1.0)));
+            (p.perspective == 1 && depth > 0.0 && subject_height(mask) > 0)
+                .then(|| subject_height(mask) as f32 * depth / p.scale[1])
+        })
+        .collect();
+    heights.sort_by(f32::total_cmp);
+    let model_height = (hi - lo).max_element();
+    if let Some(&seen) = heights.get(heights.len() / 2) {
+        if !(0.5..=2.0).contains(&(seen / model_height)) {
+            println!(
+                "warning: the masks' subject looks about {seen:.3} tall where the model is {model_height:.3}: are the \
+                 cameras' t in the model's units?"
+            );
+        }
+    }
+    Ok(start)
+}
+
+/// The bounding box of `points`.
+fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+}
+
 /// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
 /// `--save`, the fitted mesh and pose to `--out`.
 pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Box<dyn std::error::Error>> {
@@ -61,9 +119,13 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
     println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");
-    let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
-    let before = renderer.render(&rest_mesh, &cameras)?.images().to_vec();
+    let rest = Pose::rest(model.joint_count());
+    // The fit starts with the model moved to where the masks' centres of coverage meet.
+    let start = if o.no_placement { rest } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
+    let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
+    let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let o = &Options { initial: Some(start), ..o.clone() };
     let (fitted, seconds) =
         fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), false, |_, progress, _| {
             Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))

@@ -102,16 +102,20 @@ fn opencv_cameras(mesh: &Mesh, size: (u32, u32)) -> Vec<Value> {
 /// Writes the masks of the built-in figure in a random pose and `cameras.json` into a fresh
 /// folder, [`SIZE`]; returns the mask paths and the JSON path.
 fn write_user_data() -> (Vec<PathBuf>, PathBuf) {
-    write_user_data_at(SIZE)
+    write_user_data_at(SIZE, Vec3::ZERO)
 }
 
-/// [`write_user_data`] with masks of `size` pixels.
-fn write_user_data_at(size: (u32, u32)) -> (Vec<PathBuf>, PathBuf) {
+/// [`write_user_data`] with masks of `size` pixels, the figure (and the cameras about it) moved
+/// by `offset` in the world.
+fn write_user_data_at(size: (u32, u32), offset: Vec3) -> (Vec<PathBuf>, PathBuf) {
     let dir = crate::common::files::temp_dir();
     let model = builtin_figure();
-    let rest =
-        Mesh::with_topology(model.skin(&Pose::rest(model.joint_count())).unwrap(), model.mesh.topology().clone())
-            .unwrap();
+    let rest = Pose::rest(model.joint_count());
+    let rest = Mesh::with_topology(
+        model.skin(&rest).unwrap().iter().map(|p| *p + offset).collect(),
+        model.mesh.topology().clone(),
+    )
+    .unwrap();
     let specs = opencv_cameras(&rest, size);
     let cameras: Vec<Camera> = specs
         .iter()
@@ -122,7 +126,8 @@ fn write_user_data_at(size: (u32, u32)) -> (Vec<PathBuf>, PathBuf) {
         })
         .collect();
     let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
-    let posed = Mesh::with_topology(model.skin(&truth).unwrap(), model.mesh.topology().clone()).unwrap();
+    let posed = model.skin(&truth).unwrap().iter().map(|p| *p + offset).collect();
+    let posed = Mesh::with_topology(posed, model.mesh.topology().clone()).unwrap();
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
     let images = renderer.render(&posed, &cameras).unwrap().images().to_vec();
     let masks: Vec<PathBuf> = images
@@ -190,7 +195,7 @@ fn fits_the_users_masks_and_cameras_and_saves_the_result() {
 #[test]
 fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
     // The figure about 3/4 of 224 pixels tall: downsampled 2x (to 140 x 112) for 64 pixels.
-    let (masks, cameras) = write_user_data_at((280, 224));
+    let (masks, cameras) = write_user_data_at((280, 224), Vec3::ZERO);
     let out = crate::common::files::temp_dir();
     let o = user_options(&masks, &cameras, &["--iterations", "60", "--out", out.to_str().unwrap()]);
     assert_eq!(o.fit_height, diffsil::pose::fit::FIT_SUBJECT_HEIGHT);
@@ -207,6 +212,27 @@ fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
     let o = user_options(&masks, &cameras, &["--iterations", "3", "--fit-height", "0", "--out", out.to_str().unwrap()]);
     let outcome = example::fit_user_data(&model, &o).unwrap();
     assert_eq!((outcome.factor, outcome.fit_size), (1, (280, 224)));
+}
+
+/// Calibrated cameras put the world's origin anywhere: the figure standing far from where it
+/// was built (out of every view there) is fitted from the point where the masks' centres meet,
+/// and missed from its rest position (`--no-placement`).
+#[test]
+fn the_fit_starts_where_the_masks_place_the_body() {
+    let (masks, cameras) = write_user_data_at(SIZE, Vec3::new(4.0, 0.0, -3.0));
+    let out = crate::common::files::temp_dir();
+    let fit = |extra: &[&str]| {
+        let args = [&["--iterations", "60", "--out", out.to_str().unwrap()], extra].concat();
+        let o = user_options(&masks, &cameras, &args);
+        let (model, _) = example::load_model(&o).unwrap();
+        let outcome = example::fit_user_data(&model, &o).unwrap();
+        let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / 3.0;
+        (mean(&outcome.before), mean(&outcome.after))
+    };
+    let (placed0, placed1) = fit(&[]);
+    assert!(placed0 > 0.2 && placed1 > 0.75, "placed: mean IoU {placed0:.3} -> {placed1:.3}");
+    let (rest0, rest1) = fit(&["--no-placement"]);
+    assert!(rest0 == 0.0 && rest1 < 0.5, "from the rest position: mean IoU {rest0:.3} -> {rest1:.3}");
 }
 
 #[test]

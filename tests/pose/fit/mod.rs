@@ -9,6 +9,7 @@ mod hypotheses;
 mod inflation;
 mod interval;
 mod outline;
+mod placement;
 mod polish;
 mod prior_scale;
 mod proxy;
