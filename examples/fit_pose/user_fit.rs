@@ -30,6 +30,9 @@ pub struct DataOutcome {
     pub factor: u32,
     /// Width and height of the first view's images in the fit.
     pub fit_size: (u32, u32),
+    /// How tall the masks' subject looks where they place it, over the model's height (the
+    /// placement's units check; `None` with `--no-placement` or when no point is found).
+    pub height_ratio: Option<f32>,
     /// Per view (IoU, E_sl) of the rest pose.
     pub before: Vec<(f64, f64)>,
     /// Per view (IoU, E_sl) of the fitted pose.
@@ -47,18 +50,18 @@ pub struct DataOutcome {
 /// model's own silhouettes there triangulate to the same point (a silhouette's centre is not the
 /// body's centre, and the bias is about the same for the model as for the subject); printed,
 /// with a warning where the masks' subject looks more than twice as tall or as short as the model
-/// there (cameras in other units than the model's). `rest` itself when the point is not
-/// determined.
+/// there (cameras in other units than the model's), and that height over the model's (`None`
+/// without a perspective view of the subject). `rest` itself when the point is not determined.
 fn placed_start(
     model: &SkinnedMesh,
     renderer: &mut Renderer,
     cameras: &[Camera],
     masks: &[Image],
     rest: Pose,
-) -> Result<Pose, Box<dyn std::error::Error>> {
+) -> Result<(Pose, Option<f32>), Box<dyn std::error::Error>> {
     let Some(point) = triangulate_masks(cameras, masks)? else {
         println!("placement: the masks' centres do not fix a point (fewer than two views see the subject); starting at the rest pose");
-        return Ok(rest);
+        return Ok((rest, None));
     };
     let (lo, hi) = bounds(&model.skin(&rest)?);
     let centre = (lo + hi) * 0.5;
@@ -84,15 +87,16 @@ fn placed_start(
         .collect();
     heights.sort_by(f32::total_cmp);
     let model_height = (hi - lo).max_element();
-    if let Some(&seen) = heights.get(heights.len() / 2) {
-        if !(0.5..=2.0).contains(&(seen / model_height)) {
+    let ratio = heights.get(heights.len() / 2).map(|seen| seen / model_height);
+    if let (Some(&seen), Some(ratio)) = (heights.get(heights.len() / 2), ratio) {
+        if !(0.5..=2.0).contains(&ratio) {
             println!(
                 "warning: the masks' subject looks about {seen:.3} tall where the model is {model_height:.3}: are the \
                  cameras' t in the model's units?"
             );
         }
     }
-    Ok(start)
+    Ok((start, ratio))
 }
 
 /// The bounding box of `points`.
@@ -121,7 +125,8 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");
     let rest = Pose::rest(model.joint_count());
     // The fit starts with the model moved to where the masks' centres of coverage meet.
-    let start = if o.no_placement { rest } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
+    let (start, height_ratio) =
+        if o.no_placement { (rest, None) } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
     let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = Renderer::with_backend(settings, o.backend.backend())?;
@@ -139,6 +144,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let mut outcome = DataOutcome {
         factor,
         fit_size: (w, h),
+        height_ratio,
         before: Vec::new(),
         after: Vec::new(),
         energy: run.energy,

@@ -227,12 +227,28 @@ fn the_fit_starts_where_the_masks_place_the_body() {
         let (model, _) = example::load_model(&o).unwrap();
         let outcome = example::fit_user_data(&model, &o).unwrap();
         let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / 3.0;
-        (mean(&outcome.before), mean(&outcome.after))
+        (mean(&outcome.before), mean(&outcome.after), outcome.height_ratio)
     };
-    let (placed0, placed1) = fit(&[]);
+    let (placed0, placed1, ratio) = fit(&[]);
+    // The figure's own masks: the subject as tall as the model, or a little less (posed).
+    assert!(ratio.is_some_and(|r| (0.5..=1.5).contains(&r)), "{ratio:?}");
     assert!(placed0 > 0.2 && placed1 > 0.75, "placed: mean IoU {placed0:.3} -> {placed1:.3}");
-    let (rest0, rest1) = fit(&["--no-placement"]);
+    let (rest0, rest1, ratio) = fit(&["--no-placement"]);
     assert!(rest0 == 0.0 && rest1 < 0.5, "from the rest position: mean IoU {rest0:.3} -> {rest1:.3}");
+    assert_eq!(ratio, None);
+    // Cameras in millimetres for a model in metres: the subject looks a thousand times too tall.
+    let mut specs: Vec<Value> = serde_json::from_str(&std::fs::read_to_string(&cameras).unwrap()).unwrap();
+    for spec in &mut specs {
+        let t: Vec<f64> = serde_json::from_value(spec["t"].clone()).unwrap();
+        spec["t"] = json!(t.iter().map(|x| x * 1000.0).collect::<Vec<_>>());
+        spec["far"] = json!(1e6);
+    }
+    let millimetres = cameras.with_file_name("millimetres.json");
+    std::fs::write(&millimetres, serde_json::to_string(&specs).unwrap()).unwrap();
+    let o = user_options(&masks, &millimetres, &["--iterations", "3", "--out", out.to_str().unwrap()]);
+    let (model, _) = example::load_model(&o).unwrap();
+    let ratio = example::fit_user_data(&model, &o).unwrap().height_ratio.unwrap();
+    assert!(ratio > 500.0, "{ratio}");
 }
 
 #[test]
