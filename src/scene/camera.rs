@@ -263,13 +263,7 @@ impl Camera {
     /// orthographic camera whose sides `factor` does not divide (its image centre would move,
     /// which that projection cannot express).
     pub fn downsampled(&self, factor: u32) -> Result<Camera> {
-        if factor == 0 || factor > self.width || factor > self.height {
-            return Err(Error::InvalidSettings(format!(
-                "downsampling factor {factor} for a {}x{} camera: it must be at least 1 and at most the width \
-                 and the height",
-                self.width, self.height
-            )));
-        }
+        crate::scene::image::check_downsampling("camera", factor, self.width, self.height)?;
         let divides = self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor);
         let k = factor as f32;
         let projection = match self.projection {

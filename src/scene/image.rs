@@ -94,13 +94,7 @@ impl Image {
     /// Errors: [`Error::InvalidSettings`] for a `factor` of 0, or one larger than the width or
     /// the height (nothing would be left).
     pub fn downsampled(&self, factor: u32) -> Result<Image> {
-        if factor == 0 || factor > self.width || factor > self.height {
-            return Err(Error::InvalidSettings(format!(
-                "downsampling factor {factor} for a {}x{} image: it must be at least 1 and at most the width \
-                 and the height",
-                self.width, self.height
-            )));
-        }
+        check_downsampling("image", factor, self.width, self.height)?;
         let (width, height) = (self.width / factor, self.height / factor);
         let (k, stride) = (factor as usize, self.width as usize);
         let scale = 1.0 / (k * k) as f64;
@@ -127,4 +121,17 @@ impl Image {
         }
         Ok(())
     }
+}
+
+/// Errors with [`Error::InvalidSettings`] unless `factor` is at least 1 and at most `width` and
+/// `height`: the check of [`Image::downsampled`] and [`Camera::downsampled`](crate::Camera::downsampled)
+/// (`what` names the one downsampled).
+pub(crate) fn check_downsampling(what: &str, factor: u32, width: u32, height: u32) -> Result<()> {
+    if factor == 0 || factor > width || factor > height {
+        return Err(Error::InvalidSettings(format!(
+            "downsampling factor {factor} for a {width}x{height} {what}: it must be at least 1 and at most the \
+             width and the height"
+        )));
+    }
+    Ok(())
 }
