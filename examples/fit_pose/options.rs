@@ -251,6 +251,11 @@ pub struct Options {
     /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
     #[arg(long, requires = "targets")]
     pub no_placement: bool,
+    /// Start `--targets` with the model turned by this many degrees about the vertical (+y, the
+    /// glTF up) through its centre: the fit turns the body by itself only part of the way (a
+    /// body facing away from the model's front is fitted facing the other way)
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = finite, requires = "targets")]
+    pub facing: f32,
     /// The pose a fit starts from, when not the rest pose (set by the placement of `--targets`).
     #[arg(skip)]
     pub initial: Option<Pose>,

@@ -99,6 +99,24 @@ fn placed_start(
     Ok((start, ratio))
 }
 
+/// `pose` turned by `angle` radians about the vertical (+y) through the centre of the model's
+/// bounding box there (`--facing`): the orientation turned, the translation moved back so
+/// the centre stays.
+fn turned(model: &SkinnedMesh, pose: Pose, angle: f32) -> Result<Pose, Box<dyn std::error::Error>> {
+    if angle == 0.0 {
+        return Ok(pose);
+    }
+    let centre = |pose: &Pose| -> Result<Vec3, Box<dyn std::error::Error>> {
+        let (lo, hi) = bounds(&model.skin(pose)?);
+        Ok((lo + hi) * 0.5)
+    };
+    let before = centre(&pose)?;
+    let turn = glam::Quat::from_rotation_y(angle) * glam::Quat::from_scaled_axis(pose.orientation);
+    let mut out = Pose { orientation: turn.to_scaled_axis(), ..pose };
+    out.translation += before - centre(&out)?;
+    Ok(out)
+}
+
 /// The bounding box of `points`.
 fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
     points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
@@ -127,6 +145,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     // The fit starts with the model moved to where the masks' centres of coverage meet.
     let (start, height_ratio) =
         if o.no_placement { (rest, None) } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
+    let start = turned(model, start, o.facing.to_radians())?;
     let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = Renderer::with_backend(settings, o.backend.backend())?;

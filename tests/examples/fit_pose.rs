@@ -102,12 +102,12 @@ fn opencv_cameras(mesh: &Mesh, size: (u32, u32)) -> Vec<Value> {
 /// Writes the masks of the built-in figure in a random pose and `cameras.json` into a fresh
 /// folder, [`SIZE`]; returns the mask paths and the JSON path.
 fn write_user_data() -> (Vec<PathBuf>, PathBuf) {
-    write_user_data_at(SIZE, Vec3::ZERO)
+    write_user_data_at(SIZE, Vec3::ZERO, 0.0)
 }
 
 /// [`write_user_data`] with masks of `size` pixels, the figure (and the cameras about it) moved
-/// by `offset` in the world.
-fn write_user_data_at(size: (u32, u32), offset: Vec3) -> (Vec<PathBuf>, PathBuf) {
+/// by `offset` in the world, and turned by `turn` radians more about the vertical.
+fn write_user_data_at(size: (u32, u32), offset: Vec3, turn: f32) -> (Vec<PathBuf>, PathBuf) {
     let dir = crate::common::files::temp_dir();
     let model = builtin_figure();
     let rest = Pose::rest(model.joint_count());
@@ -125,7 +125,8 @@ fn write_user_data_at(size: (u32, u32), offset: Vec3) -> (Vec<PathBuf>, PathBuf)
             Camera::from_opencv(m("K"), m("R"), t, size.0, size.1).unwrap()
         })
         .collect();
-    let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    let mut truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    truth.orientation.y += turn;
     let posed = model.skin(&truth).unwrap().iter().map(|p| *p + offset).collect();
     let posed = Mesh::with_topology(posed, model.mesh.topology().clone()).unwrap();
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();
@@ -195,7 +196,7 @@ fn fits_the_users_masks_and_cameras_and_saves_the_result() {
 #[test]
 fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
     // The figure about 3/4 of 224 pixels tall: downsampled 2x (to 140 x 112) for 64 pixels.
-    let (masks, cameras) = write_user_data_at((280, 224), Vec3::ZERO);
+    let (masks, cameras) = write_user_data_at((280, 224), Vec3::ZERO, 0.0);
     let out = crate::common::files::temp_dir();
     let o = user_options(&masks, &cameras, &["--iterations", "60", "--out", out.to_str().unwrap()]);
     assert_eq!(o.fit_height, diffsil::pose::fit::FIT_SUBJECT_HEIGHT);
@@ -219,7 +220,7 @@ fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
 /// and missed from its rest position (`--no-placement`).
 #[test]
 fn the_fit_starts_where_the_masks_place_the_body() {
-    let (masks, cameras) = write_user_data_at(SIZE, Vec3::new(4.0, 0.0, -3.0));
+    let (masks, cameras) = write_user_data_at(SIZE, Vec3::new(4.0, 0.0, -3.0), 0.0);
     let out = crate::common::files::temp_dir();
     let fit = |extra: &[&str]| {
         let args = [&["--iterations", "60", "--out", out.to_str().unwrap()], extra].concat();
@@ -249,6 +250,26 @@ fn the_fit_starts_where_the_masks_place_the_body() {
     let (model, _) = example::load_model(&o).unwrap();
     let ratio = example::fit_user_data(&model, &o).unwrap().height_ratio.unwrap();
     assert!(ratio > 500.0, "{ratio}");
+}
+
+/// A figure facing away from the model's front: fitted facing the other way from the model's
+/// facing, and found with `--facing 180`.
+#[test]
+fn facing_turns_the_start() {
+    let (masks, cameras) = write_user_data_at(SIZE, Vec3::ZERO, std::f32::consts::PI);
+    let model = builtin_figure();
+    let mut truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    truth.orientation.y += std::f32::consts::PI;
+    let truth = model.skin(&truth).unwrap();
+    let error = |extra: &[&str]| {
+        let out = crate::common::files::temp_dir();
+        let args = [&["--iterations", "120", "--save", "--out", out.to_str().unwrap()], extra].concat();
+        example::fit_user_data(&model, &user_options(&masks, &cameras, &args)).unwrap();
+        let (pose, _) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
+        diffsil::pose::fit::per_vertex_error(&model.skin(&pose).unwrap(), &truth)
+    };
+    let (facing, front) = (error(&["--facing", "180"]), error(&[]));
+    assert!(facing < 0.3 * front, "per-vertex error {facing:.4} turned, {front:.4} from the front");
 }
 
 #[test]
