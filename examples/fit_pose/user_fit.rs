@@ -1,5 +1,5 @@
 //! The fit to the user's own masks and cameras (`--targets`, `--cameras`): from the model's rest
-//! pose, at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
+//! pose placed where the masks put the body (and turned by `--facing`), at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
 //! downsampled together), with no ground truth, reported as each view's silhouette IoU and energy
 //! before and after at the masks' own resolution; and the writer of a fit's result (`--save`).
 
@@ -23,7 +23,7 @@ pub fn save_fit(model: &SkinnedMesh, fit: &PoseFit, out: &Path) -> Result<(), Bo
 }
 
 /// What a fit to the user's masks measured: per view, the silhouette IoU and energy
-/// ([`user_data::agreement`]) at the start (rest pose) and at the end, at the masks' own
+/// ([`user_data::agreement`]) at the start (the rest pose, placed) and at the end, at the masks' own
 /// resolution.
 pub struct DataOutcome {
     /// The factor the masks and cameras were downsampled by for the fit (`--fit-height`).
@@ -33,7 +33,7 @@ pub struct DataOutcome {
     /// How tall the masks' subject looks where they place it, over the model's height (the
     /// placement's units check; `None` with `--no-placement` or when no point is found).
     pub height_ratio: Option<f32>,
-    /// Per view (IoU, E_sl) of the rest pose.
+    /// Per view (IoU, E_sl) of the start (the rest pose, placed and turned).
     pub before: Vec<(f64, f64)>,
     /// Per view (IoU, E_sl) of the fitted pose.
     pub after: Vec<(f64, f64)>,
