@@ -75,6 +75,15 @@ struct Outcome {
     thinned: bool,
 }
 
+/// The cameras and masks downsampled together by [`downsample_factor`] for `height` (the
+/// `--fit-height`), with the factor.
+fn at_fit_height(cameras: &[Camera], masks: &[Image], height: u32) -> diffsil::Result<(u32, Vec<Camera>, Vec<Image>)> {
+    let factor = downsample_factor(masks, height);
+    let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<diffsil::Result<_>>()?;
+    let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<diffsil::Result<_>>()?;
+    Ok((factor, cameras, masks))
+}
+
 /// Fits one seed; writes pictures when `pictures` is set.
 fn fit_seed(
     model: &SkinnedMesh,
@@ -111,9 +120,7 @@ fn fit_seed(
         .map(|(v, t)| masks::apply(o.mask_noise, t, o.flip_fraction, o.seed * 1000 + v as u64))
         .collect();
     // Where the subject is taller than `--fit-height`, the fit sees the masks downsampled.
-    let factor = downsample_factor(&targets, o.fit_height);
-    let targets = targets.iter().map(|t| t.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
-    let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
+    let (factor, cameras, targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
     if factor > 1 && !quiet {
         println!("fitting at {}x{} (the targets downsampled {factor}x)", cameras[0].width, cameras[0].height);
     }

@@ -5,11 +5,11 @@
 
 use std::path::Path;
 
-use diffsil::pose::fit::{downsample_factor, subject_height, triangulate_masks, PoseFit};
+use diffsil::pose::fit::{subject_height, triangulate_masks, PoseFit};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
-use super::{fit_with_progress, sheet, user_data, Options};
+use super::{at_fit_height, fit_with_progress, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -87,16 +87,14 @@ fn placed_start(
         .collect();
     heights.sort_by(f32::total_cmp);
     let model_height = (hi - lo).max_element();
-    let ratio = heights.get(heights.len() / 2).map(|seen| seen / model_height);
-    if let (Some(&seen), Some(ratio)) = (heights.get(heights.len() / 2), ratio) {
-        if !(0.5..=2.0).contains(&ratio) {
-            println!(
-                "warning: the masks' subject looks about {seen:.3} tall where the model is {model_height:.3}: are the \
-                 cameras' t in the model's units?"
-            );
-        }
+    let seen = heights.get(heights.len() / 2).copied();
+    if let Some(seen) = seen.filter(|seen| !(0.5..=2.0).contains(&(seen / model_height))) {
+        println!(
+            "warning: the masks' subject looks about {seen:.3} tall where the model is {model_height:.3}: are the \
+             cameras' t in the model's units?"
+        );
     }
-    Ok((start, ratio))
+    Ok((start, seen.map(|seen| seen / model_height)))
 }
 
 /// `pose` turned by `angle` radians about the vertical (+y) through the centre of the model's
@@ -135,9 +133,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     // The fit runs where the subject is about `--fit-height` pixels tall; the report and the
     // pictures are at the masks' own resolution.
-    let factor = downsample_factor(&targets, o.fit_height);
-    let fit_targets = targets.iter().map(|t| t.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
-    let fit_cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<Result<Vec<_>, _>>()?;
+    let (factor, fit_cameras, fit_targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
     let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
     println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");

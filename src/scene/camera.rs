@@ -267,11 +267,9 @@ impl Camera {
         let divides = self.width.is_multiple_of(factor) && self.height.is_multiple_of(factor);
         let k = factor as f32;
         let projection = match self.projection {
-            Projection::Pinhole { fx, fy, cx, cy } => {
-                Projection::Pinhole { fx: fx / k, fy: fy / k, cx: cx / k, cy: cy / k }
-            }
             Projection::Perspective { .. } | Projection::Orthographic { .. } if divides => self.projection,
-            Projection::Perspective { .. } => {
+            // A pinhole's own intrinsics, or a perspective camera's equivalent pinhole.
+            Projection::Pinhole { .. } | Projection::Perspective { .. } => {
                 let [fx, fy, cx, cy] = self.intrinsics();
                 Projection::Pinhole { fx: fx / k, fy: fy / k, cx: cx / k, cy: cy / k }
             }
