@@ -14,6 +14,9 @@ use crate::{Camera, Image, Renderer, Result};
 pub struct Fitted {
     /// The fit at its final pose; [`PoseFit::pose`] is the result.
     pub fit: PoseFit,
+    /// The facing the fit kept, in radians: the one of [`FitOptions::facings`] whose starting
+    /// poses ended the hypothesis phase lowest; 0 without facings.
+    pub facing: f32,
     /// Steps, hypotheses' energies, the final energy and why it stopped (of the first run's
     /// descent, before its swap test).
     pub report: RunReport,
@@ -118,10 +121,18 @@ pub fn fit(
     }
     let outline_rate = fit.outline_rate();
     let mut on_step = on_step;
-    let first = run_pass(&mut fit, options, &schedule, &hypotheses, outline_rate, &mut on_step)?;
+    // Where several facings are tried, the hypothesis phase picks one; everything after it (the
+    // runs from the crossed legs, the restarts) starts from that facing alone.
+    let one_facing = FitOptions { facings: Vec::new(), ..options.clone() };
+    let first = run_pass(&mut fit, &one_facing, &schedule, &hypotheses, outline_rate, &mut on_step)?;
+    let per_facing = hypotheses.len() / options.facings.len().max(1);
+    let chosen = first.report.chosen / per_facing.max(1);
+    let facing = options.facings.get(chosen).copied().unwrap_or(0.0);
+    let facing_starts = &hypotheses[chosen * per_facing..(chosen + 1) * per_facing];
+    let faced = FitOptions { initial: facing_starts.first().cloned(), ..one_facing };
     let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty() || options.thinned_final_run;
     let restart = if options.fit_pose && restarts && !first.cancelled() {
-        Some(restarts_after_first_pass(&mut fit, options, &hypotheses, first.steps(), outline_rate, &mut on_step)?)
+        Some(restarts_after_first_pass(&mut fit, &faced, facing_starts, first.steps(), outline_rate, &mut on_step)?)
     } else {
         None
     };
@@ -136,5 +147,5 @@ pub fn fit(
         None
     };
     let Pass { report, swap, crossed_legs } = first;
-    Ok(Fitted { fit, report, swap, crossed_legs, restart, polish })
+    Ok(Fitted { fit, facing, report, swap, crossed_legs, restart, polish })
 }

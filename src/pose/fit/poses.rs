@@ -1,7 +1,7 @@
 //! Poses: random plausible ones (ground truths), the starting poses of a fit, and the error
 //! between two posed meshes.
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::random::SplitMix64;
@@ -19,6 +19,36 @@ pub fn random_pose(limits: &[f32], max_yaw: f32, seed: u64) -> Pose {
         orientation: Vec3::new(0.0, rng.range(-max_yaw, max_yaw), 0.0),
         translation: Vec3::ZERO,
     }
+}
+
+/// `pose` turned by `angle` radians about the vertical (+y, the glTF up) through the centre of
+/// the bounding box of `model` skinned at `pose`: the global orientation turned, the
+/// translation moved so that the centre stays where it was. The starting poses of
+/// [`FitOptions::facings`](super::FitOptions::facings) are made this way. `pose` itself (a
+/// clone) for an angle of 0.
+///
+/// Errors: [`crate::Error::InvalidSettings`] for a non-finite `angle`; the skinning's errors
+/// (a pose with the wrong number of joints).
+pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Result<Pose> {
+    if !angle.is_finite() {
+        return Err(crate::Error::InvalidSettings(format!(
+            "turned_about_vertical: the angle is {angle}; it must be a finite number of radians"
+        )));
+    }
+    if angle == 0.0 {
+        return Ok(pose.clone());
+    }
+    let centre = |pose: &Pose| -> Result<Vec3> {
+        let (lo, hi) = model
+            .skin(pose)?
+            .iter()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        Ok((lo + hi) * 0.5)
+    };
+    let turn = Quat::from_rotation_y(angle) * Quat::from_scaled_axis(pose.orientation);
+    let mut turned = Pose { orientation: turn.to_scaled_axis(), ..pose.clone() };
+    turned.translation += centre(pose)? - centre(&turned)?;
+    Ok(turned)
 }
 
 /// Mean distance between corresponding vertices (paper Eq. 21), in the mesh's units.

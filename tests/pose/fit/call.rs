@@ -12,7 +12,7 @@ use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, RenderSettings, Renderer, Vec3};
 
 /// The built-in figure, 4 cameras at `resolution`² and the silhouettes of `truth`.
-fn views_of(truth: &Pose, resolution: u32) -> (SkinnedMesh, Vec<Camera>, Vec<Image>) {
+pub(super) fn views_of(truth: &Pose, resolution: u32) -> (SkinnedMesh, Vec<Camera>, Vec<Image>) {
     let model = builtin_figure();
     let cameras = framing_cameras(&model.mesh, 4, resolution);
     let mut renderer = Renderer::new(RenderSettings::default()).unwrap();

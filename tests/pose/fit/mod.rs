@@ -4,6 +4,7 @@
 mod call;
 mod cameras;
 mod crossed_legs;
+mod facing;
 mod head_turns;
 mod hypotheses;
 mod inflation;

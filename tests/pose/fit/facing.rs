@@ -1,0 +1,88 @@
+//! Facings (`FitOptions::facings`, `turned_about_vertical`): a turn about the vertical keeps the
+//! body's centre and moves it rigidly; the plan tries each facing's starting poses; a body facing
+//! away from the model's front is fitted the right way round with `FitOptions::ANY_FACING` and
+//! back to front without it.
+
+use std::f32::consts::PI;
+
+use diffsil::pose::figure::{builtin_figure, random_pose_limits};
+use diffsil::pose::fit::{fit, per_vertex_error, random_pose, turned_about_vertical, FitOptions};
+use diffsil::pose::skin::Pose;
+use diffsil::{Error, Vec3};
+use glam::Quat;
+
+use super::call::{go_on, renderer};
+
+/// The centre of the bounding box of `points`.
+fn centre(points: &[Vec3]) -> Vec3 {
+    let (lo, hi) =
+        points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    (lo + hi) * 0.5
+}
+
+#[test]
+fn a_turn_about_the_vertical_keeps_the_centre_and_moves_the_body_rigidly() {
+    let model = builtin_figure();
+    let mut pose = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
+    pose.translation = Vec3::new(0.3, -0.1, 1.2);
+    let before = model.skin(&pose).unwrap();
+    for angle in [0.7, PI / 2.0, PI, -2.0] {
+        let turned = turned_about_vertical(&model, &pose, angle).unwrap();
+        assert_eq!(turned.joint_rotations, pose.joint_rotations, "the joints are kept");
+        let after = model.skin(&turned).unwrap();
+        assert!((centre(&after) - centre(&before)).length() < 1e-5, "angle {angle}: the centre moved");
+        // Every vertex is the turn of its old position plus one common offset.
+        let turn = Quat::from_rotation_y(angle);
+        let offset = after[0] - turn * before[0];
+        for (a, b) in after.iter().zip(&before) {
+            assert!((*a - turn * *b - offset).length() < 1e-5, "angle {angle}: not a turn about +y");
+        }
+    }
+    assert_eq!(turned_about_vertical(&model, &pose, 0.0).unwrap(), pose);
+    assert!(matches!(turned_about_vertical(&model, &pose, f32::NAN), Err(Error::InvalidSettings(_))));
+    let short = Pose::rest(model.joint_count() - 1);
+    assert!(turned_about_vertical(&model, &short, 1.0).is_err(), "a pose with a joint too few");
+}
+
+#[test]
+fn the_plan_tries_every_facing_with_every_starting_pose() {
+    let model = builtin_figure();
+    let one = FitOptions::default();
+    let (schedule, starts) = one.plan(&model).unwrap();
+    let facings = vec![0.0, PI];
+    let two = FitOptions { facings: facings.clone(), ..FitOptions::default() };
+    let (schedule2, starts2) = two.plan(&model).unwrap();
+    assert_eq!(schedule2, schedule, "each facing's starting poses take the steps they take alone");
+    assert_eq!(starts2.len(), 2 * starts.len());
+    assert_eq!(starts2[..starts.len()], starts[..], "facing 0 is the initial pose's");
+    let turned = turned_about_vertical(&model, &starts[0], PI).unwrap();
+    for (a, b) in starts2[starts.len()..].iter().zip(&starts) {
+        assert_eq!(a.joint_rotations, b.joint_rotations);
+        assert_eq!((a.orientation, a.translation), (turned.orientation, turned.translation));
+    }
+
+    let bad = FitOptions { facings: vec![0.0, f32::INFINITY], ..FitOptions::default() };
+    let e = bad.validate().unwrap_err().to_string();
+    assert!(e.contains("facing"), "{e}");
+    let unblurred = FitOptions { facings, coarse_blur: 0.0, ..FitOptions::default() };
+    let e = unblurred.plan(&model).unwrap_err().to_string();
+    assert!(e.contains("hypothesis phase"), "{e}");
+}
+
+#[test]
+fn a_body_facing_away_is_fitted_the_right_way_round_from_any_facing() {
+    let model = builtin_figure();
+    let mut truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    truth.orientation.y += PI;
+    let (model, cameras, targets) = super::call::views_of(&truth, 64);
+    let truth_vertices = model.skin(&truth).unwrap();
+    let run = |facings: Vec<f32>| {
+        let options = FitOptions { steps: 300, facings, ..FitOptions::default() };
+        let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
+        (fitted.facing, per_vertex_error(&fitted.fit.vertices().unwrap(), &truth_vertices))
+    };
+    let (facing, error) = run(FitOptions::ANY_FACING.to_vec());
+    let (front, front_error) = run(Vec::new());
+    assert_eq!((facing, front), (PI, 0.0), "the facing kept");
+    assert!(error < 0.3 * front_error, "per-vertex error {error:.4} from any facing, {front_error:.4} from the front");
+}
