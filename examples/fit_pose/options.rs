@@ -251,11 +251,14 @@ pub struct Options {
     /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
     #[arg(long, requires = "targets")]
     pub no_placement: bool,
-    /// Start `--targets` with the model turned by this many degrees about the vertical (+y, the
-    /// glTF up) through its centre: the fit turns the body by itself only part of the way (a
-    /// body facing away from the model's front is fitted facing the other way)
-    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = finite, requires = "targets")]
-    pub facing: f32,
+    /// Which way the `--targets`' subject faces, about the vertical (+y, the glTF up): `auto`
+    /// tries the model's front and three quarter turns from it and keeps the facing whose
+    /// starting poses fit best after the first steps (`FitOptions::ANY_FACING`); a number of
+    /// degrees starts the model turned by that much through its centre and keeps it (the fit
+    /// turns a body by itself only part of the way: one facing away from the model's front
+    /// ends fitted back to front). `--plain` has no starting poses' steps: `auto` is 0 there
+    #[arg(long, value_name = "auto|DEG", default_value = "auto", value_parser = facing, requires = "targets")]
+    pub facing: Facing,
     /// The pose a fit starts from, when not the rest pose (set by the placement of `--targets`).
     #[arg(skip)]
     pub initial: Option<Pose>,
@@ -265,6 +268,24 @@ pub struct Options {
     /// The seed of `--views irregular`'s rig when not `seed` (`--motion`: one rig for the clip).
     #[arg(skip)]
     pub rig_seed: Option<u64>,
+}
+
+/// `--facing`: tried from the masks, or given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Facing {
+    /// The four facings of `FitOptions::ANY_FACING`, the best kept.
+    Auto,
+    /// The model turned by this many degrees.
+    Degrees(f32),
+}
+
+/// Parses `--facing`: `auto` or a finite number of degrees.
+fn facing(value: &str) -> Result<Facing, String> {
+    if value == "auto" {
+        Ok(Facing::Auto)
+    } else {
+        finite(value).map(Facing::Degrees).map_err(|e| format!("{e} (or `auto`)"))
+    }
 }
 
 /// The model `o` names: `--model`'s glTF (which must have a skin), the built-in figure with
@@ -341,6 +362,13 @@ pub fn fit_options(o: &Options) -> FitOptions {
         thinned_final_run: defaults.thinned_final_run && !o.no_thinned_final_run,
         polish_steps: o.polish_steps.unwrap_or(defaults.polish_steps),
         initial: o.initial.clone(),
+        // The user's masks may show the subject facing any way; the example's own targets face
+        // the model's front.
+        facings: if !o.targets.is_empty() && o.facing == Facing::Auto {
+            FitOptions::ANY_FACING.to_vec()
+        } else {
+            Vec::new()
+        },
         ..defaults
     }
 }

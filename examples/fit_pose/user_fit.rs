@@ -1,14 +1,15 @@
 //! The fit to the user's own masks and cameras (`--targets`, `--cameras`): from the model's rest
-//! pose placed where the masks put the body (and turned by `--facing`), at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
+//! pose placed where the masks put the body (turned by `--facing DEG`, or tried at four facings), at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
 //! downsampled together), with no ground truth, reported as each view's silhouette IoU and energy
 //! before and after at the masks' own resolution; and the writer of a fit's result (`--save`).
 
 use std::path::Path;
 
-use diffsil::pose::fit::{subject_height, triangulate_masks, PoseFit};
+use diffsil::pose::fit::{subject_height, triangulate_masks, turned_about_vertical, PoseFit};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
+use super::options::Facing;
 use super::{at_fit_height, fit_with_progress, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
@@ -37,7 +38,10 @@ pub struct DataOutcome {
     pub before: Vec<(f64, f64)>,
     /// Per view (IoU, E_sl) of the fitted pose.
     pub after: Vec<(f64, f64)>,
-    /// The fit's final energy E (unblurred, all terms).
+    /// The facing the fit kept, in degrees from the model's front (`--facing auto`'s choice,
+    /// else 0: a given `--facing` turns the start instead).
+    pub facing: f32,
+    /// The fit's final energy E (unblurred, all terms, [`PoseFit::energy`]).
     pub energy: f64,
     /// Adam steps taken.
     pub steps: u32,
@@ -97,24 +101,6 @@ fn placed_start(
     Ok((start, seen.map(|seen| seen / model_height)))
 }
 
-/// `pose` turned by `angle` radians about the vertical (+y) through the centre of the model's
-/// bounding box there (`--facing`): the orientation turned, the translation moved back so
-/// the centre stays.
-fn turned(model: &SkinnedMesh, pose: Pose, angle: f32) -> Result<Pose, Box<dyn std::error::Error>> {
-    if angle == 0.0 {
-        return Ok(pose);
-    }
-    let centre = |pose: &Pose| -> Result<Vec3, Box<dyn std::error::Error>> {
-        let (lo, hi) = bounds(&model.skin(pose)?);
-        Ok((lo + hi) * 0.5)
-    };
-    let before = centre(&pose)?;
-    let turn = glam::Quat::from_rotation_y(angle) * glam::Quat::from_scaled_axis(pose.orientation);
-    let mut out = Pose { orientation: turn.to_scaled_axis(), ..pose };
-    out.translation += before - centre(&out)?;
-    Ok(out)
-}
-
 /// The bounding box of `points`.
 fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
     points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
@@ -141,7 +127,10 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     // The fit starts with the model moved to where the masks' centres of coverage meet.
     let (start, height_ratio) =
         if o.no_placement { (rest, None) } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
-    let start = turned(model, start, o.facing.to_radians())?;
+    let start = match o.facing {
+        Facing::Degrees(degrees) => turned_about_vertical(model, &start, degrees.to_radians())?,
+        Facing::Auto => start,
+    };
     let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = Renderer::with_backend(settings, o.backend.backend())?;
@@ -150,7 +139,11 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
         fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), false, |_, progress, _| {
             Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))
         })?;
-    let (fit, run) = (fitted.fit, fitted.report);
+    let facing = fitted.facing.to_degrees();
+    if o.facing == Facing::Auto {
+        println!("facing: {facing:.0}° from the model's front fitted best after the starting poses' steps");
+    }
+    let (mut fit, run) = (fitted.fit, fitted.report);
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     println!("stopped: {:?} after {} steps", run.stop, run.steps);
     println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
@@ -162,7 +155,8 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
         height_ratio,
         before: Vec::new(),
         after: Vec::new(),
-        energy: run.energy,
+        facing,
+        energy: fit.energy()?,
         steps: run.steps,
         seconds,
     };

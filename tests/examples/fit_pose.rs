@@ -253,9 +253,9 @@ fn the_fit_starts_where_the_masks_place_the_body() {
 }
 
 /// A figure facing away from the model's front: fitted facing the other way from the model's
-/// facing, and found with `--facing 180`.
+/// facing (`--facing 0`), and found with `--facing 180` and with `--facing auto` (the default).
 #[test]
-fn facing_turns_the_start() {
+fn facing_turns_the_start_or_is_found() {
     let (masks, cameras) = write_user_data_at(SIZE, Vec3::ZERO, std::f32::consts::PI);
     let model = builtin_figure();
     let mut truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
@@ -268,8 +268,9 @@ fn facing_turns_the_start() {
         let (pose, _) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
         diffsil::pose::fit::per_vertex_error(&model.skin(&pose).unwrap(), &truth)
     };
-    let (facing, front) = (error(&["--facing", "180"]), error(&[]));
+    let (facing, front, auto) = (error(&["--facing", "180"]), error(&["--facing", "0"]), error(&[]));
     assert!(facing < 0.3 * front, "per-vertex error {facing:.4} turned, {front:.4} from the front");
+    assert!(auto < 0.3 * front, "per-vertex error {auto:.4} from any facing, {front:.4} from the front");
 }
 
 #[test]
