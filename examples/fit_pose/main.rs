@@ -23,8 +23,8 @@
 //!
 //! With `--targets` and `--cameras` the masks and cameras are the user's own (see `user_data.rs`
 //! for the JSON format): the model is fitted to them from its rest pose moved to where the masks
-//! place the body (`--no-placement`: where it was built), tried at four facings (`--facing DEG`:
-//! turned by that much instead), at a resolution
+//! place the body (`--no-placement`: where it was built), stood along the cameras' up (`--up`),
+//! tried at four facings (`--facing DEG`: turned by that much instead), at a resolution
 //! where the body is about `--fit-height` pixels tall, with no ground truth, so the report is each
 //! view's silhouette IoU and energy before and after.
 

@@ -9,6 +9,7 @@ use diffsil::pose::figure::builtin_figure;
 use diffsil::pose::fit::{Convergence, FitOptions, PoseFit, Schedule, SwapScreen};
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
+use diffsil::Vec3;
 
 use super::common::{finite, BackendName};
 use super::evaluate::seed_range;
@@ -259,6 +260,12 @@ pub struct Options {
     /// ends fitted back to front). `--plain` has no starting poses' steps: `auto` is 0 there
     #[arg(long, value_name = "auto|DEG", default_value = "auto", value_parser = facing, requires = "targets")]
     pub facing: Facing,
+    /// The world's up in `--cameras`' world, along which the model (upright along +y) is stood:
+    /// `auto` takes the cameras' mean up (`diffsil::pose::fit::cameras_up`), the nearest axis
+    /// where within 30° of one, e.g. +z for a calibration whose target lay on the floor; or one
+    /// of `+x`, `-x`, `+y`, `-y`, `+z`, `-z`
+    #[arg(long, value_name = "auto|AXIS", default_value = "auto", value_parser = up, requires = "targets")]
+    pub up: Up,
     /// The pose a fit starts from, when not the rest pose (set by the placement of `--targets`).
     #[arg(skip)]
     pub initial: Option<Pose>,
@@ -286,6 +293,30 @@ fn facing(value: &str) -> Result<Facing, String> {
     } else {
         finite(value).map(Facing::Degrees).map_err(|e| format!("{e} (or `auto`)"))
     }
+}
+
+/// `--up`: read from the cameras, or given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Up {
+    /// The cameras' mean up, snapped to the nearest axis within 30°.
+    Auto,
+    /// This unit axis.
+    Axis(Vec3),
+}
+
+/// Parses `--up`: `auto` or a signed axis.
+fn up(value: &str) -> Result<Up, String> {
+    let axis = match value {
+        "auto" => return Ok(Up::Auto),
+        "+x" | "x" => Vec3::X,
+        "-x" => Vec3::NEG_X,
+        "+y" | "y" => Vec3::Y,
+        "-y" => Vec3::NEG_Y,
+        "+z" | "z" => Vec3::Z,
+        "-z" => Vec3::NEG_Z,
+        _ => return Err(format!("`{value}`: use auto, +x, -x, +y, -y, +z or -z")),
+    };
+    Ok(Up::Axis(axis))
 }
 
 /// The model `o` names: `--model`'s glTF (which must have a skin), the built-in figure with

@@ -5,11 +5,11 @@
 
 use std::path::Path;
 
-use diffsil::pose::fit::{subject_height, triangulate_masks, turned_about_vertical, PoseFit};
+use diffsil::pose::fit::{cameras_up, subject_height, triangulate_masks, turned_about_vertical, PoseFit};
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
-use super::options::Facing;
+use super::options::{Facing, Up};
 use super::{at_fit_height, fit_with_progress, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
@@ -101,6 +101,41 @@ fn placed_start(
     Ok((start, seen.map(|seen| seen / model_height)))
 }
 
+/// The world's up for `--up` (`Up::Auto`: the cameras' mean up, snapped to the nearest axis
+/// within 30°; +y without a common up), printed where it is not +y.
+fn world_up(cameras: &[Camera], up: Up) -> Vec3 {
+    match up {
+        Up::Axis(axis) => axis,
+        Up::Auto => {
+            let Some(mean) = cameras_up(cameras) else {
+                println!("up: the cameras have no common up; the model stays upright along +y");
+                return Vec3::Y;
+            };
+            let axes = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+            let nearest = axes.into_iter().max_by(|a, b| a.dot(mean).total_cmp(&b.dot(mean))).unwrap_or(Vec3::Y);
+            let snapped = if nearest.dot(mean) >= 30f32.to_radians().cos() { nearest } else { mean };
+            if snapped != Vec3::Y {
+                println!("up: the cameras' mean up is {mean:.3}; the model is stood along {snapped:.3}");
+            }
+            snapped
+        }
+    }
+}
+
+/// The rest pose of `model` (upright along +y) stood along `up`: its global orientation the
+/// shortest turn from +y to `up`; for `up` −y, the half turn about +x (y and z flipped, as from
+/// a world with y up to one with y down such as an OpenCV camera's frame).
+fn upright(model: &SkinnedMesh, up: Vec3) -> Pose {
+    let mut rest = Pose::rest(model.joint_count());
+    let up = up.normalize();
+    if up.dot(Vec3::Y) < -0.9999 {
+        rest.orientation = Vec3::new(std::f32::consts::PI, 0.0, 0.0);
+    } else if up != Vec3::Y {
+        rest.orientation = glam::Quat::from_rotation_arc(Vec3::Y, up).to_scaled_axis();
+    }
+    rest
+}
+
 /// The bounding box of `points`.
 fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
     points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
@@ -123,7 +158,8 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
     println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");
-    let rest = Pose::rest(model.joint_count());
+    let up = world_up(&cameras, o.up);
+    let rest = upright(model, up);
     // The fit starts with the model moved to where the masks' centres of coverage meet.
     let (start, height_ratio) =
         if o.no_placement { (rest, None) } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };

@@ -273,6 +273,45 @@ fn facing_turns_the_start_or_is_found() {
     assert!(auto < 0.3 * front, "per-vertex error {auto:.4} from any facing, {front:.4} from the front");
 }
 
+/// Cameras calibrated in a world whose up is not +y: +z (a target that lay on the floor) and
+/// −y (upside down). The figure, upright along +y in its own frame, is stood along the cameras'
+/// up by `--up auto` (the default) and fitted; kept along +y (`--up +y`) upside down, it misses.
+#[test]
+fn the_world_up_is_read_from_the_cameras() {
+    let (masks, cameras) = write_user_data_at(SIZE, Vec3::ZERO, 0.0);
+    let model = builtin_figure();
+    let truth = model.skin(&random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3)).unwrap();
+    // The fit's per-vertex error with the same masks seen in the world X' = Q X (R' = R Qᵀ, t
+    // kept), against the truth there.
+    let error = |q: glam::Mat3, extra: &[&str]| {
+        let mut specs: Vec<Value> = serde_json::from_str(&std::fs::read_to_string(&cameras).unwrap()).unwrap();
+        for spec in &mut specs {
+            let r: [[f32; 3]; 3] = serde_json::from_value(spec["R"].clone()).unwrap();
+            let r = glam::Mat3::from_cols_array_2d(&r).transpose() * q.transpose();
+            spec["R"] = json!(r.transpose().to_cols_array_2d());
+        }
+        let turned = cameras.with_file_name(format!("turned{}.json", extra.len()));
+        std::fs::write(&turned, serde_json::to_string(&specs).unwrap()).unwrap();
+        let out = crate::common::files::temp_dir();
+        // The facing given: the built-in figure at this size is not told front from back.
+        let args =
+            [&["--iterations", "120", "--facing", "0", "--save", "--out", out.to_str().unwrap()], extra].concat();
+        example::fit_user_data(&model, &user_options(&masks, &turned, &args)).unwrap();
+        let (pose, _) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
+        let truth: Vec<Vec3> = truth.iter().map(|p| q * *p).collect();
+        diffsil::pose::fit::per_vertex_error(&model.skin(&pose).unwrap(), &truth)
+    };
+    let z_up = glam::Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+    assert_eq!(z_up * Vec3::Y, Vec3::Z);
+    let z = error(z_up, &[]);
+    assert!(z < 0.015, "per-vertex error {z:.4} stood along +z");
+    let upside_down = glam::Mat3::from_diagonal(Vec3::new(1.0, -1.0, -1.0));
+    let (auto, kept) = (error(upside_down, &[]), error(upside_down, &["--up", "+y"]));
+    assert!(auto < 0.3 * kept, "per-vertex error {auto:.4} stood along -y, {kept:.4} along +y");
+    let o = example::Options::try_parse_from(["fit_pose", "--targets", "a.png", "--cameras", "c.json", "--up", "+w"]);
+    assert!(o.unwrap_err().to_string().contains("use auto, +x"));
+}
+
 #[test]
 fn bad_user_data_are_clear_errors() {
     let (masks, cameras) = write_user_data();

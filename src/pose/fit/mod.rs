@@ -246,7 +246,7 @@ pub use descent::{
 pub use inflation::vertex_normals;
 pub use method::{fit, Fitted};
 pub use options::FitOptions;
-pub use placement::triangulate_masks;
+pub use placement::{cameras_up, triangulate_masks};
 pub use polish::{PolishReport, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses, turned_about_vertical};
 pub use resolution::{downsample_factor, subject_height, FIT_SUBJECT_HEIGHT};

@@ -61,8 +61,8 @@ pub struct FitOptions {
     /// The pose to start from (and to keep where a part is not fitted); `None`: the rest pose.
     /// Default `None`.
     pub initial: Option<Pose>,
-    /// Facings to try, in radians: the initial pose turned by each about the vertical (+y)
-    /// through its centre ([`turned_about_vertical`]), every starting pose with each, all in one
+    /// Facings to try, in radians: the initial pose turned by each about its vertical (the
+    /// model's +y as its orientation holds it) through its centre ([`turned_about_vertical`]), every starting pose with each, all in one
     /// hypothesis phase; the lowest energy after it decides the facing, which the rest of the
     /// fit (the later stages, the runs from the crossed legs, the restarts) keeps
     /// ([`Fitted::facing`](super::Fitted::facing)). For targets whose subject may face any way:

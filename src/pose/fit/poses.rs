@@ -21,8 +21,9 @@ pub fn random_pose(limits: &[f32], max_yaw: f32, seed: u64) -> Pose {
     }
 }
 
-/// `pose` turned by `angle` radians about the vertical (+y, the glTF up) through the centre of
-/// the bounding box of `model` skinned at `pose`: the global orientation turned, the
+/// `pose` turned by `angle` radians about its vertical through the centre of the bounding box of
+/// `model` skinned at `pose`: about the model's up (+y, the glTF up) as the pose's global
+/// orientation holds it (+y itself for an upright pose), the orientation turned and the
 /// translation moved so that the centre stays where it was. The starting poses of
 /// [`FitOptions::facings`](super::FitOptions::facings) are made this way. `pose` itself (a
 /// clone) for an angle of 0.
@@ -45,7 +46,8 @@ pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Re
             .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
         Ok((lo + hi) * 0.5)
     };
-    let turn = Quat::from_rotation_y(angle) * Quat::from_scaled_axis(pose.orientation);
+    let orientation = Quat::from_scaled_axis(pose.orientation);
+    let turn = Quat::from_axis_angle((orientation * Vec3::Y).normalize(), angle) * orientation;
     let mut turned = Pose { orientation: turn.to_scaled_axis(), ..pose.clone() };
     turned.translation += centre(pose)? - centre(&turned)?;
     Ok(turned)

@@ -45,6 +45,26 @@ fn a_turn_about_the_vertical_keeps_the_centre_and_moves_the_body_rigidly() {
 }
 
 #[test]
+fn a_lying_pose_turns_about_its_own_up() {
+    let model = builtin_figure();
+    // Stood along +z: its up is +z, and a turn about it keeps the up.
+    let lying = Pose {
+        orientation: Quat::from_rotation_arc(Vec3::Y, Vec3::Z).to_scaled_axis(),
+        ..Pose::rest(model.joint_count())
+    };
+    let before = model.skin(&lying).unwrap();
+    let turned = turned_about_vertical(&model, &lying, PI / 2.0).unwrap();
+    let up = Quat::from_scaled_axis(turned.orientation) * Vec3::Y;
+    assert!((up - Vec3::Z).length() < 1e-5, "{up}");
+    let after = model.skin(&turned).unwrap();
+    let turn = Quat::from_rotation_z(PI / 2.0);
+    let offset = after[0] - turn * before[0];
+    for (a, b) in after.iter().zip(&before) {
+        assert!((*a - turn * *b - offset).length() < 1e-5, "not a turn about +z");
+    }
+}
+
+#[test]
 fn the_plan_tries_every_facing_with_every_starting_pose() {
     let model = builtin_figure();
     let one = FitOptions::default();
