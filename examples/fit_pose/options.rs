@@ -252,7 +252,7 @@ pub struct Options {
     /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
     #[arg(long, requires = "targets")]
     pub no_placement: bool,
-    /// Which way the `--targets`' subject faces, about the vertical (+y, the glTF up): `auto`
+    /// Which way the `--targets`' subject faces, about its vertical (the model's up, stood along `--up`): `auto`
     /// tries the model's front and three quarter turns from it and keeps the facing whose
     /// starting poses fit best after the first steps (`FitOptions::ANY_FACING`); a number of
     /// degrees starts the model turned by that much through its centre and keeps it (the fit
@@ -261,7 +261,7 @@ pub struct Options {
     #[arg(long, value_name = "auto|DEG", default_value = "auto", value_parser = facing, requires = "targets")]
     pub facing: Facing,
     /// The world's up in `--cameras`' world, along which the model (upright along +y) is stood:
-    /// `auto` takes the cameras' mean up (`diffsil::pose::fit::cameras_up`), the nearest axis
+    /// `auto` takes the cameras' mean up (`diffsil::pose::fit::world_up`), the nearest axis
     /// where within 30° of one, e.g. +z for a calibration whose target lay on the floor; or one
     /// of `+x`, `-x`, `+y`, `-y`, `+z`, `-z`
     #[arg(long, value_name = "auto|AXIS", default_value = "auto", value_parser = up, requires = "targets")]

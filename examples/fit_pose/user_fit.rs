@@ -1,12 +1,17 @@
 //! The fit to the user's own masks and cameras (`--targets`, `--cameras`): from the model's rest
-//! pose placed where the masks put the body (turned by `--facing DEG`, or tried at four facings), at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
-//! downsampled together), with no ground truth, reported as each view's silhouette IoU and energy
-//! before and after at the masks' own resolution; and the writer of a fit's result (`--save`).
+//! pose stood along the cameras' up and placed where the masks put the body
+//! (`diffsil::pose::fit::start_from_masks`), turned by `--facing DEG` or tried at four facings,
+//! at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
+//! downsampled together), with no ground truth, reported as each view's silhouette IoU and
+//! energy before and after at the masks' own resolution; and the writer of a fit's result
+//! (`--save`).
 
 use std::path::Path;
 
-use diffsil::pose::fit::{cameras_up, subject_height, triangulate_masks, turned_about_vertical, PoseFit};
-use diffsil::pose::skin::{Pose, SkinnedMesh};
+use diffsil::pose::fit::{
+    cameras_up, start_from_masks, subject_height, turned_about_vertical, upright, world_up, MaskStart, PoseFit,
+};
+use diffsil::pose::skin::SkinnedMesh;
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 use super::options::{Facing, Up};
@@ -49,96 +54,47 @@ pub struct DataOutcome {
     pub seconds: f64,
 }
 
-/// `rest` moved (its root translation) to where the masks place the body: where the rays through
-/// the masks' centres of coverage meet ([`triangulate_masks`]), corrected once so that the
-/// model's own silhouettes there triangulate to the same point (a silhouette's centre is not the
-/// body's centre, and the bias is about the same for the model as for the subject); printed,
-/// with a warning where the masks' subject looks more than twice as tall or as short as the model
-/// there (cameras in other units than the model's), and that height over the model's (`None`
-/// without a perspective view of the subject). `rest` itself when the point is not determined.
-fn placed_start(
+/// The start of the fit ([`start_from_masks`], or with `--no-placement` the rest pose stood along
+/// the up where the model was built), printed, with a warning where the masks' subject looks
+/// more than twice as tall or as short as the model (cameras in other units than the model's).
+fn start(
     model: &SkinnedMesh,
     renderer: &mut Renderer,
     cameras: &[Camera],
     masks: &[Image],
-    rest: Pose,
-) -> Result<(Pose, Option<f32>), Box<dyn std::error::Error>> {
-    let Some(point) = triangulate_masks(cameras, masks)? else {
-        println!("placement: the masks' centres do not fix a point (fewer than two views see the subject); starting at the rest pose");
-        return Ok((rest, None));
+    o: &Options,
+) -> Result<MaskStart, Box<dyn std::error::Error>> {
+    let up = match o.up {
+        Up::Auto => None,
+        Up::Axis(axis) => Some(axis),
     };
-    let (lo, hi) = bounds(&model.skin(&rest)?);
-    let centre = (lo + hi) * 0.5;
-    let mut start = Pose { translation: rest.translation + (point - centre), ..rest.clone() };
-    let there = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
-    if let Some(seen) = triangulate_masks(cameras, renderer.render(&there, cameras)?.images())? {
-        start.translation += point - seen;
+    let start = if o.no_placement {
+        let up = up.unwrap_or_else(|| world_up(cameras));
+        MaskStart { pose: upright(model.joint_count(), up)?, up, point: None, height_ratio: None }
+    } else {
+        start_from_masks(model, cameras, masks, renderer, up)?
+    };
+    if o.up == Up::Auto && start.up != Vec3::Y {
+        let mean = cameras_up(cameras).unwrap_or(Vec3::Y);
+        println!("up: the cameras' mean up is {mean:.3}; the model is stood along {:.3}", start.up);
     }
-    println!(
-        "placement: the model moved by {:.3} from its rest position, to where the masks' centres meet ({point:.3})",
-        start.translation - rest.translation
-    );
-    // The subject's height in world units as each perspective view sees it at that depth.
-    let mut heights: Vec<f32> = cameras
-        .iter()
-        .zip(masks)
-        .filter_map(|(camera, mask)| {
-            let p = camera.params();
-            let depth = -(glam::Vec4::from(p.row2).dot(point.extend(1.0)));
-            (p.perspective == 1 && depth > 0.0 && subject_height(mask) > 0)
-                .then(|| subject_height(mask) as f32 * depth / p.scale[1])
-        })
-        .collect();
-    heights.sort_by(f32::total_cmp);
-    let model_height = (hi - lo).max_element();
-    let seen = heights.get(heights.len() / 2).copied();
-    if let Some(seen) = seen.filter(|seen| !(0.5..=2.0).contains(&(seen / model_height))) {
+    match start.point {
+        Some(point) => println!(
+            "placement: the model moved by {:.3} from its rest position, to where the masks' centres meet ({point:.3})",
+            start.pose.translation
+        ),
+        None if !o.no_placement => println!(
+            "placement: the masks' centres do not fix a point (fewer than two views see the subject); starting at the rest pose"
+        ),
+        None => {}
+    }
+    if let Some(ratio) = start.height_ratio.filter(|r| !(0.5..=2.0).contains(r)) {
         println!(
-            "warning: the masks' subject looks about {seen:.3} tall where the model is {model_height:.3}: are the \
-             cameras' t in the model's units?"
+            "warning: the masks' subject looks about {ratio:.3} times as tall as the model: are the cameras' t in the \
+             model's units?"
         );
     }
-    Ok((start, seen.map(|seen| seen / model_height)))
-}
-
-/// The world's up for `--up` (`Up::Auto`: the cameras' mean up, snapped to the nearest axis
-/// within 30°; +y without a common up), printed where it is not +y.
-fn world_up(cameras: &[Camera], up: Up) -> Vec3 {
-    match up {
-        Up::Axis(axis) => axis,
-        Up::Auto => {
-            let Some(mean) = cameras_up(cameras) else {
-                println!("up: the cameras have no common up; the model stays upright along +y");
-                return Vec3::Y;
-            };
-            let axes = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
-            let nearest = axes.into_iter().max_by(|a, b| a.dot(mean).total_cmp(&b.dot(mean))).unwrap_or(Vec3::Y);
-            let snapped = if nearest.dot(mean) >= 30f32.to_radians().cos() { nearest } else { mean };
-            if snapped != Vec3::Y {
-                println!("up: the cameras' mean up is {mean:.3}; the model is stood along {snapped:.3}");
-            }
-            snapped
-        }
-    }
-}
-
-/// The rest pose of `model` (upright along +y) stood along `up`: its global orientation the
-/// shortest turn from +y to `up`; for `up` −y, the half turn about +x (y and z flipped, as from
-/// a world with y up to one with y down such as an OpenCV camera's frame).
-fn upright(model: &SkinnedMesh, up: Vec3) -> Pose {
-    let mut rest = Pose::rest(model.joint_count());
-    let up = up.normalize();
-    if up.dot(Vec3::Y) < -0.9999 {
-        rest.orientation = Vec3::new(std::f32::consts::PI, 0.0, 0.0);
-    } else if up != Vec3::Y {
-        rest.orientation = glam::Quat::from_rotation_arc(Vec3::Y, up).to_scaled_axis();
-    }
-    rest
-}
-
-/// The bounding box of `points`.
-fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
-    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+    Ok(start)
 }
 
 /// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
@@ -158,11 +114,9 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
     println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");
-    let up = world_up(&cameras, o.up);
-    let rest = upright(model, up);
-    // The fit starts with the model moved to where the masks' centres of coverage meet.
-    let (start, height_ratio) =
-        if o.no_placement { (rest, None) } else { placed_start(model, &mut renderer, &cameras, &targets, rest)? };
+    let start = start(model, &mut renderer, &cameras, &targets, o)?;
+    let height_ratio = start.height_ratio;
+    let start = start.pose;
     let start = match o.facing {
         Facing::Degrees(degrees) => turned_about_vertical(model, &start, degrees.to_radians())?,
         Facing::Auto => start,

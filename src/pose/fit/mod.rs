@@ -236,6 +236,7 @@ mod poses;
 mod resolution;
 mod restart;
 mod schedule;
+mod start;
 
 pub use cameras::{framing_cameras, framing_orbit, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
 pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
@@ -246,9 +247,10 @@ pub use descent::{
 pub use inflation::vertex_normals;
 pub use method::{fit, Fitted};
 pub use options::FitOptions;
-pub use placement::{cameras_up, triangulate_masks};
+pub use placement::triangulate_masks;
 pub use polish::{PolishReport, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses, turned_about_vertical};
 pub use resolution::{downsample_factor, subject_height, FIT_SUBJECT_HEIGHT};
 pub use restart::{misfit_blocks, RestartFamily, RestartReport, RestartRun, RestartStart};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};
+pub use start::{cameras_up, start_from_masks, upright, world_up, MaskStart};

@@ -6,8 +6,6 @@
 //! [`triangulate_masks`] finds the point nearest to the rays through each mask's centre of
 //! coverage; moving the starting pose's root translation there puts the body where the cameras
 //! see it (the `fit_pose` example: 2.7 / 4.5 / 28.0 mm median / p90 / worst on those 30).
-//! Which way is up is the calibration's choice too (a target lying on the floor makes its normal,
-//! z, the up); [`cameras_up`] reads it from the cameras, which stand upright around a subject.
 
 use glam::{DMat3, DVec3};
 
@@ -81,17 +79,4 @@ pub fn triangulate_masks(cameras: &[Camera], masks: &[Image]) -> Result<Option<V
     }
     let x = a.inverse() * b;
     Ok(x.is_finite().then(|| x.as_vec3()))
-}
-
-/// The mean of the cameras' up directions (each camera's image "up", its y axis, in world
-/// space), normalised: the world's up as the cameras see it, since cameras around a standing
-/// subject are held about level (a capture rig's, or a phone's in portrait or landscape). A
-/// model upright along +y should be stood along it before a fit ([`FitOptions::initial`](super::FitOptions::initial)'s
-/// orientation) where a calibration's world has another up, e.g. +z for a target that lay on the
-/// floor. `None` without cameras, or when their ups cancel out (the mean shorter than 0.1: no
-/// common up).
-pub fn cameras_up(cameras: &[Camera]) -> Option<Vec3> {
-    let sum: Vec3 = cameras.iter().map(|c| c.rotation().row(1)).sum();
-    let mean = sum / cameras.len().max(1) as f32;
-    (mean.is_finite() && mean.length() >= 0.1).then(|| mean.normalize())
 }

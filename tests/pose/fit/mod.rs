@@ -16,6 +16,7 @@ mod prior_scale;
 mod proxy;
 mod resolution;
 mod restart;
+mod start;
 mod swap;
 mod warmup;
 

@@ -3,8 +3,8 @@
 //! seen by perspective and OpenCV cameras, and the cases with no answer or bad input.
 
 use diffsil::pose::figure::builtin_figure;
-use diffsil::pose::fit::{cameras_up, framing_ring, triangulate_masks};
-use diffsil::{shapes, Camera, Error, Extrinsics, Image, Mesh, RenderSettings, Renderer, Vec3};
+use diffsil::pose::fit::{framing_ring, triangulate_masks};
+use diffsil::{shapes, Camera, Error, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 fn masks(mesh: &Mesh, cameras: &[Camera]) -> Vec<Image> {
     Renderer::new(RenderSettings::default()).unwrap().render(mesh, cameras).unwrap().images().to_vec()
@@ -82,32 +82,4 @@ fn bad_input_is_an_error() {
     assert!(matches!(triangulate_masks(&[camera], &[Image::filled(32, 30, 1.0)]), Err(Error::SizeMismatch { .. })));
     let bad = Camera { near: -1.0, ..camera };
     assert!(matches!(triangulate_masks(&[bad], &[mask]), Err(Error::InvalidCamera(_))));
-}
-
-#[test]
-fn the_cameras_up_is_the_worlds() {
-    let figure = builtin_figure();
-    // A raised ring of look-at cameras, +y up: their ups lean in, and cancel about the ring.
-    let ring = framing_ring(&figure.mesh, 4, 32, 20f32.to_radians());
-    let up = cameras_up(&ring).unwrap();
-    assert!((up - Vec3::Y).length() < 1e-5, "{up}");
-    // The same cameras in a world whose up is +z (x' = Q x): each rotation R Qᵀ.
-    let q = glam::Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
-    let turned: Vec<Camera> = ring
-        .iter()
-        .map(|c| {
-            let e = c.opencv_extrinsics();
-            c.with_extrinsics(Extrinsics { rotation: e.rotation * q.transpose(), ..e })
-        })
-        .collect();
-    let up = cameras_up(&turned).unwrap();
-    assert!((up - Vec3::Z).length() < 1e-5, "{up}");
-    // No cameras, or two whose ups cancel (one upside down): no common up.
-    assert_eq!(cameras_up(&[]), None);
-    let upright = Camera::perspective(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 0.8, 16, 16);
-    let e = upright.opencv_extrinsics();
-    let flip = glam::Mat3::from_diagonal(Vec3::new(-1.0, -1.0, 1.0));
-    let upside_down =
-        upright.with_extrinsics(Extrinsics { rotation: flip * e.rotation, translation: flip * e.translation });
-    assert_eq!(cameras_up(&[upright, upside_down]), None);
 }
