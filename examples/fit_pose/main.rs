@@ -9,6 +9,7 @@
 //! cargo run --release --example fit_pose -- --figure --seeds 31-50 --mask-noise dilate
 //! cargo run --release --example fit_pose -- --ablation 10         # paper Table 2 over 10 seeds
 //! cargo run --release --example fit_pose -- --targets a.png,b.png --cameras cameras.json --save
+//! cargo run --release --example fit_pose -- --seed 3 --turn 180 --export d   # as --targets data
 //! ```
 //!
 //! A random plausible ground-truth pose is drawn from the seed (joint limits from the joints'
@@ -25,8 +26,10 @@
 //! for the JSON format): the model is fitted to them from its rest pose moved to where the masks
 //! place the body (`--no-placement`: where it was built), stood along the cameras' up (`--up`),
 //! tried at four facings (`--facing DEG`: turned by that much instead), at a resolution
-//! where the body is about `--fit-height` pixels tall, with no ground truth, so the report is each
-//! view's silhouette IoU and energy before and after.
+//! where the body is about `--fit-height` pixels tall, with no ground truth (unless `--truth`
+//! gives one), so the report is each view's silhouette IoU and energy before and after.
+//! `--export DIR` writes the example's own targets, cameras and truth in those formats instead
+//! of fitting them.
 
 mod evaluate;
 mod masks;
@@ -43,7 +46,8 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    downsample_factor, fit, per_vertex_error, random_pose, CrossedLegsEnd, Fitted, LimbSwap, PoseFit, Progress, Stop,
+    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, CrossedLegsEnd, Fitted, LimbSwap,
+    PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -51,7 +55,7 @@ use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
 #[path = "../common/mod.rs"]
 mod common;
 use evaluate::{ablation, evaluate, motion_frames};
-pub use options::{fit_options, load_model, Options};
+pub use options::{fit_options, load_model, Facing, Options};
 pub use user_fit::fit_user_data;
 use user_fit::save_fit;
 
@@ -85,15 +89,28 @@ fn at_fit_height(cameras: &[Camera], masks: &[Image], height: u32) -> diffsil::R
     Ok((factor, cameras, masks))
 }
 
-/// Fits one seed; writes pictures when `pictures` is set.
-fn fit_seed(
+/// The example's own targets for `o`: the ground truth (its pose, shape and vertices), the
+/// rest pose's mesh the cameras frame, the cameras of `--views`, their masks (with
+/// `--mask-noise`) and a description of an irregular rig.
+struct OwnTargets {
+    truth: Pose,
+    betas: Vec<f32>,
+    truth_vertices: Vec<diffsil::Vec3>,
+    rest_mesh: Mesh,
+    cameras: Vec<Camera>,
+    targets: Vec<Image>,
+    rig: String,
+}
+
+/// Draws `o`'s ground truth (`--seed`, `--shape`, turned by `--turn`) and renders its targets.
+fn own_targets(
     model: &SkinnedMesh,
     o: &Options,
-    pictures: bool,
-    quiet: bool,
-) -> Result<Outcome, Box<dyn std::error::Error>> {
+    renderer: &mut Renderer,
+) -> Result<OwnTargets, Box<dyn std::error::Error>> {
     let limits = random_pose_limits(&model.skeleton);
     let truth = o.truth.clone().unwrap_or_else(|| random_pose(&limits, 30f32.to_radians(), o.seed));
+    let truth = turned_about_vertical(model, &truth, o.turn.to_radians())?;
     let betas: Vec<f32> = if o.shape {
         if model.shape_count() == 0 {
             return Err("--shape needs a model with morph targets".into());
@@ -108,18 +125,38 @@ fn fit_seed(
     let rest_mesh = Mesh::with_topology(model.skin(&Pose::rest(model.joint_count()))?, model.mesh.topology().clone())?;
     let rig_seed = o.rig_seed.unwrap_or(o.seed);
     let (cameras, rig) = rig::cameras(o.views, &rest_mesh, o.view_count, o.resolution, rig_seed);
-    if !quiet {
-        print!("{rig}");
-    }
-    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
     let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
     let clean = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
-    let targets: Vec<_> = clean
+    let targets = clean
         .iter()
         .enumerate()
         .map(|(v, t)| masks::apply(o.mask_noise, t, o.flip_fraction, o.seed * 1000 + v as u64))
         .collect();
+    Ok(OwnTargets { truth, betas, truth_vertices, rest_mesh, cameras, targets, rig })
+}
+
+/// Fits one seed; writes pictures when `pictures` is set.
+fn fit_seed(
+    model: &SkinnedMesh,
+    o: &Options,
+    pictures: bool,
+    quiet: bool,
+) -> Result<Outcome, Box<dyn std::error::Error>> {
+    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let OwnTargets { truth_vertices, rest_mesh, cameras, targets, rig, .. } = own_targets(model, o, &mut renderer)?;
+    if !quiet {
+        print!("{rig}");
+    }
+    // A given `--facing` starts the model turned (`auto` tries four facings: `fit_options`).
+    let turned = match o.facing() {
+        Facing::Degrees(d) if d != 0.0 => {
+            let initial = o.initial.clone().unwrap_or_else(|| Pose::rest(model.joint_count()));
+            Some(Options { initial: Some(turned_about_vertical(model, &initial, d.to_radians())?), ..o.clone() })
+        }
+        _ => None,
+    };
+    let o = turned.as_ref().unwrap_or(o);
     // Where the subject is taller than `--fit-height`, the fit sees the masks downsampled.
     let (factor, cameras, targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
     if factor > 1 && !quiet {
@@ -233,16 +270,20 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         return evaluate(&model, &name, o, &what, cases);
     }
+    if let Some(dir) = &o.export {
+        return export(&model, o, dir);
+    }
     if !o.targets.is_empty() {
         let outcome = fit_user_data(&model, o)?;
         let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / v.len() as f64;
         println!(
-            "final: mean_iou_before={:.3} mean_iou_after={:.3} energy={:.3e} iterations={} seconds={:.3} model={name}",
+            "final: mean_iou_before={:.3} mean_iou_after={:.3} energy={:.3e} iterations={} seconds={:.3}{} model={name}",
             mean(&outcome.before),
             mean(&outcome.after),
             outcome.energy,
             outcome.steps,
-            outcome.seconds
+            outcome.seconds,
+            outcome.error_m.map_or(String::new(), |e| format!(" per_vertex_error_mm={:.2}", e * 1000.0))
         );
         return Ok(());
     }
@@ -268,6 +309,36 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
         outcome.steps,
         outcome.seconds,
         outcome.backend.replace(' ', "_")
+    );
+    Ok(())
+}
+
+/// `--export DIR`: writes the example's own targets for `o` (`mask0.png`, …), their cameras
+/// (`cameras.json`, the format `--cameras` reads) and the ground truth (`truth.json`, the format
+/// of `--save`'s `fitted_pose.json`) to `dir`, for a fit with `--targets`, `--cameras` and
+/// `--truth`.
+fn export(model: &SkinnedMesh, o: &Options, dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
+    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
+    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let own = own_targets(model, o, &mut renderer)?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut masks = Vec::new();
+    for (k, target) in own.targets.iter().enumerate() {
+        let path = dir.join(format!("mask{k}.png"));
+        diffsil::io::save_png(target, &path)?;
+        masks.push(path.display().to_string());
+    }
+    let cameras = user_data::cameras_json(&own.cameras)?;
+    std::fs::write(dir.join("cameras.json"), cameras).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::write(dir.join("truth.json"), own.truth.to_json(&own.betas))
+        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    println!(
+        "wrote {} masks, cameras.json and truth.json to {}; fit them with\n  fit_pose --targets {} --cameras {} --truth {}",
+        masks.len(),
+        dir.display(),
+        masks.join(","),
+        dir.join("cameras.json").display(),
+        dir.join("truth.json").display()
     );
     Ok(())
 }

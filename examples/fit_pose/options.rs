@@ -252,14 +252,28 @@ pub struct Options {
     /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
     #[arg(long, requires = "targets")]
     pub no_placement: bool,
-    /// Which way the `--targets`' subject faces, about its vertical (the model's up, stood along `--up`): `auto`
-    /// tries the model's front and three quarter turns from it and keeps the facing whose
+    /// Which way the subject faces, about its vertical (the model's up, stood along `--up`):
+    /// `auto` tries the model's front and three quarter turns from it and keeps the facing whose
     /// starting poses fit best after the first steps (`FitOptions::ANY_FACING`); a number of
     /// degrees starts the model turned by that much through its centre and keeps it (the fit
     /// turns a body by itself only part of the way: one facing away from the model's front
     /// ends fitted back to front). `--plain` has no starting poses' steps: `auto` is 0 there
-    #[arg(long, value_name = "auto|DEG", default_value = "auto", value_parser = facing, requires = "targets")]
-    pub facing: Facing,
+    /// [default: auto with `--targets`, 0 for the example's own targets]
+    #[arg(long, value_name = "auto|DEG", value_parser = facing)]
+    pub facing: Option<Facing>,
+    /// Turn the example's own ground truth by this many degrees about its vertical (e.g. 180:
+    /// facing away from the model's front)
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = finite, conflicts_with = "targets")]
+    pub turn: f32,
+    /// Write the example's own targets (`mask0.png`, …), their cameras (`cameras.json`, as
+    /// `--cameras` reads them) and the ground truth (`truth.json`) to this folder instead of
+    /// fitting them, for a fit with `--targets`, `--cameras` and `--truth`
+    #[arg(long, value_name = "DIR", conflicts_with = "targets")]
+    pub export: Option<PathBuf>,
+    /// The ground truth of `--targets` (a pose and shape JSON as `--save` and `--export` write
+    /// them): the fit then reports its per-vertex error
+    #[arg(long = "truth", value_name = "FILE", requires = "targets")]
+    pub truth_file: Option<PathBuf>,
     /// The world's up in `--cameras`' world, along which the model (upright along +y) is stood:
     /// `auto` takes the cameras' mean up (`diffsil::pose::fit::world_up`), the nearest axis
     /// where within 30° of one, e.g. +z for a calibration whose target lay on the floor; or one
@@ -275,6 +289,14 @@ pub struct Options {
     /// The seed of `--views irregular`'s rig when not `seed` (`--motion`: one rig for the clip).
     #[arg(skip)]
     pub rig_seed: Option<u64>,
+}
+
+impl Options {
+    /// `--facing`, or its default: `auto` for `--targets`, the model's front (0) for the
+    /// example's own targets.
+    pub fn facing(&self) -> Facing {
+        self.facing.unwrap_or(if self.targets.is_empty() { Facing::Degrees(0.0) } else { Facing::Auto })
+    }
 }
 
 /// `--facing`: tried from the masks, or given.
@@ -395,11 +417,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
         initial: o.initial.clone(),
         // The user's masks may show the subject facing any way; the example's own targets face
         // the model's front.
-        facings: if !o.targets.is_empty() && o.facing == Facing::Auto {
-            FitOptions::ANY_FACING.to_vec()
-        } else {
-            Vec::new()
-        },
+        facings: if o.facing() == Facing::Auto { FitOptions::ANY_FACING.to_vec() } else { Vec::new() },
         ..defaults
     }
 }

@@ -111,6 +111,31 @@ pub fn load_cameras(path: &Path) -> Result<Vec<Camera>, String> {
         .collect()
 }
 
+/// `cameras` as the JSON `load_cameras` reads (`K` in OpenCV's pixel convention, `R` and `t`
+/// world → camera in OpenCV's axes, `near`, `far`); errors for an orthographic camera, which
+/// that format cannot hold.
+pub fn cameras_json(cameras: &[Camera]) -> Result<String, String> {
+    let list = cameras
+        .iter()
+        .enumerate()
+        .map(|(k, camera)| {
+            if matches!(camera.projection, diffsil::Projection::Orthographic { .. }) {
+                return Err(format!("camera {k} is orthographic: cameras.json holds pinhole cameras only"));
+            }
+            let [fx, fy, cx, cy] = camera.intrinsics();
+            let e = camera.opencv_extrinsics();
+            let r = e.rotation.transpose().to_cols_array_2d();
+            Ok(serde_json::json!({
+                "width": camera.width, "height": camera.height,
+                "K": [[fx, 0.0, cx - 0.5], [0.0, fy, cy - 0.5], [0.0, 0.0, 1.0]],
+                "R": r, "t": e.translation.to_array(),
+                "near": camera.near, "far": camera.far,
+            }))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    serde_json::to_string_pretty(&list).map_err(|e| e.to_string())
+}
+
 /// The masks at `paths`, one per camera and of its size; `threshold` hardens them (see
 /// `TargetMode`), otherwise a pixel's value in [0, 1] is its coverage.
 pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32>) -> Result<Vec<Image>, String> {

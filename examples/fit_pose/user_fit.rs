@@ -9,9 +9,10 @@
 use std::path::Path;
 
 use diffsil::pose::fit::{
-    cameras_up, start_from_masks, subject_height, turned_about_vertical, upright, world_up, MaskStart, PoseFit,
+    cameras_up, per_vertex_error, start_from_masks, subject_height, turned_about_vertical, upright, world_up,
+    MaskStart, PoseFit,
 };
-use diffsil::pose::skin::SkinnedMesh;
+use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
 
 use super::options::{Facing, Up};
@@ -48,6 +49,8 @@ pub struct DataOutcome {
     pub facing: f32,
     /// The fit's final energy E (unblurred, all terms, [`PoseFit::energy`]).
     pub energy: f64,
+    /// The per-vertex error against `--truth`, in the model's units; `None` without it.
+    pub error_m: Option<f64>,
     /// Adam steps taken.
     pub steps: u32,
     /// Wall-clock seconds of the fit.
@@ -97,6 +100,14 @@ fn start(
     Ok(start)
 }
 
+/// The per-vertex error of `fit` against the ground truth in the pose and shape JSON at `path`.
+fn truth_error(model: &SkinnedMesh, fit: &PoseFit, path: &Path) -> Result<f64, Box<dyn std::error::Error>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("--truth {}: {e}", path.display()))?;
+    let (pose, shape) = Pose::from_json(&text).map_err(|e| format!("--truth {}: {e}", path.display()))?;
+    let truth = model.skin_shaped(&pose, &shape).map_err(|e| format!("--truth {}: {e}", path.display()))?;
+    Ok(per_vertex_error(&fit.vertices()?, &truth))
+}
+
 /// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
 /// `--save`, the fitted mesh and pose to `--out`.
 pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Box<dyn std::error::Error>> {
@@ -117,7 +128,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let start = start(model, &mut renderer, &cameras, &targets, o)?;
     let height_ratio = start.height_ratio;
     let start = start.pose;
-    let start = match o.facing {
+    let start = match o.facing() {
         Facing::Degrees(degrees) => turned_about_vertical(model, &start, degrees.to_radians())?,
         Facing::Auto => start,
     };
@@ -130,7 +141,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
             Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))
         })?;
     let facing = fitted.facing.to_degrees();
-    if o.facing == Facing::Auto {
+    if o.facing() == Facing::Auto {
         println!("facing: {facing:.0}° from the model's front fitted best after the starting poses' steps");
     }
     let (mut fit, run) = (fitted.fit, fitted.report);
@@ -147,6 +158,10 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
         after: Vec::new(),
         facing,
         energy: fit.energy()?,
+        error_m: match &o.truth_file {
+            Some(path) => Some(truth_error(model, &fit, path)?),
+            None => None,
+        },
         steps: run.steps,
         seconds,
     };

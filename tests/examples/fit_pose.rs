@@ -312,6 +312,55 @@ fn the_world_up_is_read_from_the_cameras() {
     assert!(o.unwrap_err().to_string().contains("use auto, +x"));
 }
 
+/// `--export` writes the example's own targets, their cameras and the ground truth; the cameras
+/// render the truth to the masks again, and fitted back with `--targets`, `--cameras` and
+/// `--truth` they report the fit's per-vertex error.
+#[test]
+fn exported_targets_fit_back_with_their_truth() {
+    let dir = crate::common::files::temp_dir();
+    let args = ["fit_pose", "--figure", "--resolution", "40", "--views", "irregular", "--seed", "5", "--turn", "30"];
+    let o = example::Options::try_parse_from(args.iter().copied().chain(["--export", dir.to_str().unwrap()])).unwrap();
+    example::run(&o).unwrap();
+    let masks: Vec<PathBuf> = (0..4).map(|k| dir.join(format!("mask{k}.png"))).collect();
+    let cameras_path = dir.join("cameras.json");
+    let cameras = user_data::load_cameras(&cameras_path).unwrap();
+    let targets = user_data::load_targets(&masks, &cameras, None).unwrap();
+    let model = builtin_figure();
+    let (truth, shape) = Pose::from_json(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+    let mut seed_truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
+    seed_truth = diffsil::pose::fit::turned_about_vertical(&model, &seed_truth, 30f32.to_radians()).unwrap();
+    assert!(model
+        .skin(&truth)
+        .unwrap()
+        .iter()
+        .zip(model.skin(&seed_truth).unwrap())
+        .all(|(a, b)| (*a - b).length() < 1e-5));
+    let truth_mesh =
+        Mesh::with_topology(model.skin_shaped(&truth, &shape).unwrap(), model.mesh.topology().clone()).unwrap();
+    let rendered = Renderer::new(RenderSettings::default()).unwrap().render(&truth_mesh, &cameras).unwrap();
+    for (render, target) in rendered.images().iter().zip(&targets) {
+        let worst = render.data().iter().zip(target.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        assert!(worst < 0.003, "the exported cameras render the truth {worst} off its masks (8-bit PNG)");
+    }
+    let out = crate::common::files::temp_dir();
+    let truth_path = dir.join("truth.json");
+    let extra =
+        ["--truth", truth_path.to_str().unwrap(), "--iterations", "60", "--save", "--out", out.to_str().unwrap()];
+    let outcome = example::fit_user_data(&model, &user_options(&masks, &cameras_path, &extra)).unwrap();
+    let (fitted, _) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
+    let error = diffsil::pose::fit::per_vertex_error(&model.skin(&fitted).unwrap(), &model.skin(&truth).unwrap());
+    assert_eq!(outcome.error_m, Some(error));
+    // A truth that is not a pose, and the options that do not go together.
+    std::fs::write(&truth_path, "{}").unwrap();
+    let Err(e) = example::fit_user_data(&model, &user_options(&masks, &cameras_path, &extra)) else {
+        panic!("a truth that is not a pose was read")
+    };
+    let e = e.to_string();
+    assert!(e.starts_with("--truth") && e.contains("truth.json"), "{e}");
+    assert!(example::Options::try_parse_from(["fit_pose", "--targets", "a.png", "--export", "d"]).is_err());
+    assert!(example::Options::try_parse_from(["fit_pose", "--truth", "t.json"]).is_err());
+}
+
 #[test]
 fn bad_user_data_are_clear_errors() {
     let (masks, cameras) = write_user_data();
