@@ -40,10 +40,7 @@ pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Re
         return Ok(pose.clone());
     }
     let centre = |pose: &Pose| -> Result<Vec3> {
-        let (lo, hi) = model
-            .skin(pose)?
-            .iter()
-            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = bounds(&model.skin(pose)?);
         Ok((lo + hi) * 0.5)
     };
     let orientation = Quat::from_scaled_axis(pose.orientation);
@@ -51,6 +48,12 @@ pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Re
     let mut turned = Pose { orientation: turn.to_scaled_axis(), ..pose.clone() };
     turned.translation += centre(pose)? - centre(&turned)?;
     Ok(turned)
+}
+
+/// The bounding box of `points` (lowest and highest corner); `f32::MAX` and `f32::MIN` corners
+/// for none.
+pub(super) fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }
 
 /// Mean distance between corresponding vertices (paper Eq. 21), in the mesh's units.

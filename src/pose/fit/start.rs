@@ -9,6 +9,7 @@
 
 use glam::{Quat, Vec4};
 
+use super::poses::bounds;
 use super::{subject_height, triangulate_masks};
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::{Camera, Error, Image, Mesh, Renderer, Result, Vec3};
@@ -120,9 +121,4 @@ pub fn start_from_masks(
     let model_height = (hi - lo).max_element();
     let height_ratio = heights.get(heights.len() / 2).map(|seen| seen / model_height).filter(|r| r.is_finite());
     Ok(MaskStart { pose, up, point: Some(point), height_ratio })
-}
-
-/// The bounding box of `points`.
-fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
-    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }

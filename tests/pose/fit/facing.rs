@@ -13,8 +13,8 @@ use glam::Quat;
 
 use super::call::{go_on, renderer};
 
-/// The centre of the bounding box of `points`.
-fn centre(points: &[Vec3]) -> Vec3 {
+/// The centre of the bounding box of `points` (also used by `start.rs`).
+pub(super) fn centre(points: &[Vec3]) -> Vec3 {
     let (lo, hi) =
         points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     (lo + hi) * 0.5

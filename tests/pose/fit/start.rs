@@ -9,18 +9,13 @@ use diffsil::pose::fit::{cameras_up, framing_ring, random_pose, start_from_masks
 use diffsil::{Camera, Error, Extrinsics, Image, Mesh, RenderSettings, Renderer, Vec3};
 use glam::{Mat3, Quat};
 
+use super::facing::centre;
+
 /// `camera` in the world `X' = q X + offset`: the same pixels for the same points.
 fn in_world(camera: &Camera, q: Mat3, offset: Vec3) -> Camera {
     let e = camera.opencv_extrinsics();
     let rotation = e.rotation * q.transpose();
     camera.with_extrinsics(Extrinsics { rotation, translation: e.translation - rotation * offset })
-}
-
-/// The centre of the bounding box of `points`.
-fn centre(points: &[Vec3]) -> Vec3 {
-    let (lo, hi) =
-        points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-    (lo + hi) * 0.5
 }
 
 #[test]
