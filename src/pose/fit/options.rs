@@ -62,10 +62,10 @@ pub struct FitOptions {
     /// Default `None`.
     pub initial: Option<Pose>,
     /// Facings to try, in radians: the initial pose turned by each about its vertical (the
-    /// model's +y as its orientation holds it) through its centre ([`turned_about_vertical`]), every starting pose with each, all in one
-    /// hypothesis phase; the lowest energy after it decides the facing, which the rest of the
-    /// fit (the later stages, the runs from the crossed legs, the restarts) keeps
-    /// ([`Fitted::facing`](super::Fitted::facing)). For targets whose subject may face any way:
+    /// model's +y as its orientation holds it) through its centre ([`turned_about_vertical`]),
+    /// every starting pose with each, all in one hypothesis phase; the lowest energy after it
+    /// decides the facing, which the rest of the fit (the later stages, the runs from the
+    /// crossed legs, the restarts) keeps ([`Fitted::facing`](super::Fitted::facing)). For targets whose subject may face any way:
     /// the descent turns a body only part of the way, and one facing away from the initial pose
     /// ends fitted back to front. Empty: the initial pose's facing alone. Needs the
     /// hypothesis phase (`coarse_blur` > 0). Default empty; [`FitOptions::ANY_FACING`] tries
