@@ -138,3 +138,14 @@ fn bad_outline_settles_are_errors_before_any_step_and_the_options_put_it_on_the_
     let schedule = Schedule::coarse_to_fine(300, 3);
     assert!(schedule.stages.iter().all(|s| s.outline_settle == 0.0));
 }
+
+#[test]
+fn downsampled_targets_fit_the_surface_offset_in_place_of_the_outline() {
+    let options = FitOptions::default();
+    assert_eq!(options.clone().for_downsampled(1), options, "a factor of 1 keeps the options");
+    for factor in [2, 5] {
+        let downsampled = options.clone().for_downsampled(factor);
+        assert!(downsampled.fit_inflation && !downsampled.fit_outline, "factor {factor}");
+        assert_eq!(FitOptions { fit_inflation: false, fit_outline: true, ..downsampled }, options);
+    }
+}
