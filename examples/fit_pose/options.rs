@@ -417,8 +417,8 @@ pub fn fit_options(o: &Options) -> FitOptions {
         thinned_final_run: defaults.thinned_final_run && !o.no_thinned_final_run,
         polish_steps: o.polish_steps.unwrap_or(defaults.polish_steps),
         initial: o.initial.clone(),
-        // The user's masks may show the subject facing any way; the example's own targets face
-        // the model's front.
+        // `--facing auto` (the default with `--targets`: the user's subject may face any way)
+        // tries four facings; a given facing turns the start instead (`fit_seed`, `user_fit.rs`).
         facings: if o.facing() == Facing::Auto { FitOptions::ANY_FACING.to_vec() } else { Vec::new() },
         ..defaults
     }
