@@ -46,8 +46,8 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, CrossedLegsEnd, FitOptions, Fitted,
-    LimbSwap, PoseFit, Progress, Stop,
+    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, upright, CrossedLegsEnd, FitOptions,
+    Fitted, LimbSwap, PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -333,7 +333,22 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
 fn export(model: &SkinnedMesh, o: &Options, dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
     let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
-    let own = own_targets(model, o, &mut renderer)?;
+    let mut own = own_targets(model, o, &mut renderer)?;
+    // `--world-up`, `--world-offset`: the world X' = Q X + offset, cameras and truth alike.
+    if o.world_up.is_some() || o.world_offset.is_some() {
+        let q = glam::Quat::from_scaled_axis(
+            upright(model.joint_count(), o.world_up.unwrap_or(diffsil::Vec3::Y))?.orientation,
+        );
+        let offset = o.world_offset.unwrap_or(diffsil::Vec3::ZERO);
+        for camera in &mut own.cameras {
+            let e = camera.opencv_extrinsics();
+            let rotation = e.rotation * glam::Mat3::from_quat(q).transpose();
+            *camera = camera
+                .with_extrinsics(diffsil::Extrinsics { rotation, translation: e.translation - rotation * offset });
+        }
+        let orientation = (q * glam::Quat::from_scaled_axis(own.truth.orientation)).to_scaled_axis();
+        own.truth = Pose { orientation, translation: q * own.truth.translation + offset, ..own.truth };
+    }
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut masks = Vec::new();
     for (k, target) in own.targets.iter().enumerate() {

@@ -272,6 +272,15 @@ pub struct Options {
     /// fitting them, for a fit with `--targets`, `--cameras` and `--truth`
     #[arg(long, value_name = "DIR", conflicts_with = "targets")]
     pub export: Option<PathBuf>,
+    /// `--export` in a world whose up is this axis (`+x`, `-x`, `+y`, `-y`, `+z`, `-z`), as a
+    /// calibration's world may be: the cameras and the truth turned by the half or quarter turn
+    /// from +y to it (for -y the half turn about x)
+    #[arg(long, value_name = "AXIS", value_parser = axis, requires = "export")]
+    pub world_up: Option<Vec3>,
+    /// `--export` in a world whose origin is this far from the model's (`X,Y,Z` in the model's
+    /// units), as a calibration's origin is wherever its target lay
+    #[arg(long, value_name = "X,Y,Z", value_parser = vector, requires = "export", allow_hyphen_values = true)]
+    pub world_offset: Option<Vec3>,
     /// The ground truth of `--targets` (a pose and shape JSON as `--save` and `--export` write
     /// them): the fit then reports its per-vertex error
     #[arg(long = "truth", value_name = "FILE", requires = "targets")]
@@ -330,17 +339,32 @@ pub enum Up {
 
 /// Parses `--up`: `auto` or a signed axis.
 fn up(value: &str) -> Result<Up, String> {
-    let axis = match value {
-        "auto" => return Ok(Up::Auto),
-        "+x" | "x" => Vec3::X,
-        "-x" => Vec3::NEG_X,
-        "+y" | "y" => Vec3::Y,
-        "-y" => Vec3::NEG_Y,
-        "+z" | "z" => Vec3::Z,
-        "-z" => Vec3::NEG_Z,
-        _ => return Err(format!("`{value}`: use auto, +x, -x, +y, -y, +z or -z")),
-    };
-    Ok(Up::Axis(axis))
+    if value == "auto" {
+        return Ok(Up::Auto);
+    }
+    axis(value).map(Up::Axis).map_err(|_| format!("`{value}`: use auto, +x, -x, +y, -y, +z or -z"))
+}
+
+/// Parses a signed axis: `+x`, `-x`, `+y`, `-y`, `+z`, `-z` (the sign of + optional).
+fn axis(value: &str) -> Result<Vec3, String> {
+    match value {
+        "+x" | "x" => Ok(Vec3::X),
+        "-x" => Ok(Vec3::NEG_X),
+        "+y" | "y" => Ok(Vec3::Y),
+        "-y" => Ok(Vec3::NEG_Y),
+        "+z" | "z" => Ok(Vec3::Z),
+        "-z" => Ok(Vec3::NEG_Z),
+        _ => Err(format!("`{value}`: use +x, -x, +y, -y, +z or -z")),
+    }
+}
+
+/// Parses `X,Y,Z`: three finite numbers.
+fn vector(value: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = value.split(',').collect();
+    match parts.as_slice() {
+        [x, y, z] => Ok(Vec3::new(finite(x)?, finite(y)?, finite(z)?)),
+        _ => Err(format!("`{value}`: give three numbers, X,Y,Z")),
+    }
 }
 
 /// The model `o` names: `--model`'s glTF (which must have a skin), the built-in figure with

@@ -321,43 +321,50 @@ fn the_world_up_is_read_from_the_cameras() {
     assert!(o.unwrap_err().to_string().contains("use auto, +x"));
 }
 
-/// `--export` writes the example's own targets, their cameras and the ground truth; the cameras
-/// render the truth to the masks again, and fitted back with `--targets`, `--cameras` and
-/// `--truth` they report the fit's per-vertex error.
+/// `--export` writes the example's own targets, their cameras and the ground truth, also in a
+/// world turned and moved as a calibration's may be (`--world-up`, `--world-offset`); the
+/// cameras render the truth to the masks again, and fitted back with `--targets`, `--cameras`
+/// and `--truth` they report the fit's per-vertex error.
 #[test]
 fn exported_targets_fit_back_with_their_truth() {
-    let dir = crate::common::files::temp_dir();
-    let args = ["fit_pose", "--figure", "--resolution", "40", "--views", "irregular", "--seed", "5", "--turn", "30"];
-    let o = example::Options::try_parse_from(args.iter().copied().chain(["--export", dir.to_str().unwrap()])).unwrap();
-    example::run(&o).unwrap();
-    let masks: Vec<PathBuf> = (0..4).map(|k| dir.join(format!("mask{k}.png"))).collect();
-    let cameras_path = dir.join("cameras.json");
-    let cameras = user_data::load_cameras(&cameras_path).unwrap();
-    let targets = user_data::load_targets(&masks, &cameras, None).unwrap();
     let model = builtin_figure();
-    let (truth, shape) = Pose::from_json(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+    let args = ["fit_pose", "--figure", "--resolution", "40", "--views", "irregular", "--seed", "5", "--turn", "30"];
+    let export = |world: &[&str]| {
+        let dir = crate::common::files::temp_dir();
+        let all = [&args[..], world, &["--export", dir.to_str().unwrap()]].concat();
+        example::run(&example::Options::try_parse_from(all).unwrap()).unwrap();
+        let masks: Vec<PathBuf> = (0..4).map(|k| dir.join(format!("mask{k}.png"))).collect();
+        let cameras = user_data::load_cameras(&dir.join("cameras.json")).unwrap();
+        let targets = user_data::load_targets(&masks, &cameras, None).unwrap();
+        let (truth, shape) = Pose::from_json(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+        let posed = model.skin_shaped(&truth, &shape).unwrap();
+        let mesh = Mesh::with_topology(posed.clone(), model.mesh.topology().clone()).unwrap();
+        let rendered = Renderer::new(RenderSettings::default()).unwrap().render(&mesh, &cameras).unwrap();
+        for (render, target) in rendered.images().iter().zip(&targets) {
+            let worst = render.data().iter().zip(target.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+            assert!(worst < 0.003, "{world:?}: the cameras render the truth {worst} off its masks (8-bit PNG)");
+        }
+        (dir, masks, posed)
+    };
+    let (dir, masks, posed) = export(&[]);
     let mut seed_truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
     seed_truth = diffsil::pose::fit::turned_about_vertical(&model, &seed_truth, 30f32.to_radians()).unwrap();
-    assert!(model
-        .skin(&truth)
-        .unwrap()
-        .iter()
-        .zip(model.skin(&seed_truth).unwrap())
-        .all(|(a, b)| (*a - b).length() < 1e-5));
-    let truth_mesh =
-        Mesh::with_topology(model.skin_shaped(&truth, &shape).unwrap(), model.mesh.topology().clone()).unwrap();
-    let rendered = Renderer::new(RenderSettings::default()).unwrap().render(&truth_mesh, &cameras).unwrap();
-    for (render, target) in rendered.images().iter().zip(&targets) {
-        let worst = render.data().iter().zip(target.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
-        assert!(worst < 0.003, "the exported cameras render the truth {worst} off its masks (8-bit PNG)");
-    }
+    let seed_posed = model.skin(&seed_truth).unwrap();
+    assert!(posed.iter().zip(&seed_posed).all(|(a, b)| (*a - *b).length() < 1e-5), "the truth is the seed's, turned");
+    // In a world whose up is +z and whose origin is elsewhere: the same body there.
+    let (_, _, moved) = export(&["--world-up", "+z", "--world-offset", "2,0.5,-1"]);
+    let q = glam::Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+    let offset = Vec3::new(2.0, 0.5, -1.0);
+    assert!(moved.iter().zip(&posed).all(|(a, b)| (*a - (q * *b + offset)).length() < 1e-4));
+
+    let cameras_path = dir.join("cameras.json");
     let out = crate::common::files::temp_dir();
     let truth_path = dir.join("truth.json");
     let extra =
         ["--truth", truth_path.to_str().unwrap(), "--iterations", "60", "--save", "--out", out.to_str().unwrap()];
     let outcome = example::fit_user_data(&model, &user_options(&masks, &cameras_path, &extra)).unwrap();
     let (fitted, _) = Pose::from_json(&std::fs::read_to_string(out.join("fitted_pose.json")).unwrap()).unwrap();
-    let error = diffsil::pose::fit::per_vertex_error(&model.skin(&fitted).unwrap(), &model.skin(&truth).unwrap());
+    let error = diffsil::pose::fit::per_vertex_error(&model.skin(&fitted).unwrap(), &posed);
     assert_eq!(outcome.error_m, Some(error));
     // A truth that is not a pose, and the options that do not go together.
     std::fs::write(&truth_path, "{}").unwrap();
@@ -368,6 +375,10 @@ fn exported_targets_fit_back_with_their_truth() {
     assert!(e.starts_with("--truth") && e.contains("truth.json"), "{e}");
     assert!(example::Options::try_parse_from(["fit_pose", "--targets", "a.png", "--export", "d"]).is_err());
     assert!(example::Options::try_parse_from(["fit_pose", "--truth", "t.json"]).is_err());
+    assert!(example::Options::try_parse_from(["fit_pose", "--world-up", "+z"]).is_err(), "only with --export");
+    for bad in [["--world-up", "+w"], ["--world-offset", "1,2"]] {
+        assert!(example::Options::try_parse_from([&["fit_pose", "--export", "d"][..], &bad[..]].concat()).is_err());
+    }
 }
 
 #[test]
