@@ -269,7 +269,7 @@ pub struct Options {
     /// Write the example's own targets (`mask0.png`, …), their cameras (`cameras.json`, as
     /// `--cameras` reads them) and the ground truth (`truth.json`) to this folder instead of
     /// fitting them, for a fit with `--targets`, `--cameras` and `--truth`
-    #[arg(long, value_name = "DIR", conflicts_with = "targets")]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["targets", "seeds", "motion", "ablation"])]
     pub export: Option<PathBuf>,
     /// `--export` in a world whose up is this axis (`+x`, `-x`, `+y`, `-y`, `+z`, `-z`), as a
     /// calibration's world may be: the cameras and the truth turned by the half or quarter turn

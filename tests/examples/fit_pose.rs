@@ -371,7 +371,10 @@ fn exported_targets_fit_back_with_their_truth() {
     };
     let e = e.to_string();
     assert!(e.starts_with("--truth") && e.contains("truth.json"), "{e}");
-    assert!(example::Options::try_parse_from(["fit_pose", "--targets", "a.png", "--export", "d"]).is_err());
+    for other in [&["--targets", "a.png"][..], &["--seeds", "1-3"], &["--motion", "0"], &["--ablation", "2"]] {
+        let args = [&["fit_pose", "--export", "d"][..], other].concat();
+        assert!(example::Options::try_parse_from(args).is_err(), "--export with {other:?}");
+    }
     assert!(example::Options::try_parse_from(["fit_pose", "--truth", "t.json"]).is_err());
     assert!(example::Options::try_parse_from(["fit_pose", "--world-up", "+z"]).is_err(), "only with --export");
     for bad in [["--world-up", "+w"], ["--world-offset", "1,2"]] {
