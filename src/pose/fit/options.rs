@@ -15,8 +15,9 @@ use crate::{Error, Result};
 /// [module documentation](super) for why each part is there).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitOptions {
-    /// Adam steps in all, every starting pose included, when the fit does not converge earlier.
-    /// Default 300.
+    /// Adam steps in all, every starting pose included, when the fit does not converge earlier
+    /// (each facing of [`FitOptions::facings`] after the first adds its starting poses' steps;
+    /// the runs after the first, [`fit`](super::fit), add theirs). Default 300.
     pub steps: u32,
     /// Adam's learning rate, > 0. Default 0.02.
     pub learning_rate: f32,
