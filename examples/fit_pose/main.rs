@@ -89,6 +89,14 @@ fn at_fit_height(cameras: &[Camera], masks: &[Image], height: u32) -> diffsil::R
     Ok((factor, cameras, masks))
 }
 
+/// A renderer with `--supersample` on `--backend`.
+fn renderer_for(o: &Options) -> diffsil::Result<Renderer> {
+    Renderer::with_backend(
+        RenderSettings { supersample: o.supersample, ..RenderSettings::default() },
+        o.backend.backend(),
+    )
+}
+
 /// The example's own targets for `o`: the ground truth (its pose, shape and vertices), the
 /// rest pose's mesh the cameras frame, the cameras of `--views`, their masks (with
 /// `--mask-noise`) and a description of an irregular rig.
@@ -142,8 +150,7 @@ fn fit_seed(
     pictures: bool,
     quiet: bool,
 ) -> Result<Outcome, Box<dyn std::error::Error>> {
-    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let mut renderer = renderer_for(o)?;
     let OwnTargets { truth_vertices, rest_mesh, cameras, targets, rig, .. } = own_targets(model, o, &mut renderer)?;
     if !quiet {
         print!("{rig}");
@@ -318,8 +325,7 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
 /// of `--save`'s `fitted_pose.json`) to `dir`, for a fit with `--targets`, `--cameras` and
 /// `--truth`.
 fn export(model: &SkinnedMesh, o: &Options, dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
-    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let mut renderer = renderer_for(o)?;
     let mut own = own_targets(model, o, &mut renderer)?;
     // `--world-up`, `--world-offset`: the world X' = Q X + offset, cameras and truth alike.
     if o.world_up.is_some() || o.world_offset.is_some() {

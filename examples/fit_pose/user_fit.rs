@@ -13,10 +13,10 @@ use diffsil::pose::fit::{
     MaskStart, PoseFit,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
-use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer, Vec3};
+use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
-use super::{at_fit_height, fit_with_progress, sheet, user_data, Options};
+use super::{at_fit_height, fit_with_progress, renderer_for, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -120,8 +120,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     if o.shape && model.shape_count() == 0 {
         return Err("--shape needs a model with morph targets".into());
     }
-    let settings = RenderSettings { supersample: o.supersample, ..RenderSettings::default() };
-    let mut renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let mut renderer = renderer_for(o)?;
     // The fit runs where the subject is about `--fit-height` pixels tall; the report and the
     // pictures are at the masks' own resolution.
     let (factor, fit_cameras, fit_targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
@@ -137,7 +136,7 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     };
     let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
-    let fit_renderer = Renderer::with_backend(settings, o.backend.backend())?;
+    let fit_renderer = renderer_for(o)?;
     let o = &Options { initial: Some(start), ..o.clone() };
     let (fitted, seconds) =
         fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), false, |_, progress, _| {
