@@ -293,6 +293,28 @@ impl Camera {
         Camera { eye, target: eye + rt * Vec3::Z, up: -(rt * Vec3::Y), extrinsics: Some(extrinsics), ..self }
     }
 
+    /// This camera in the world `X' = rotation · X + offset` (the scene turned by `rotation`, a
+    /// rotation matrix, then moved by `offset`, as a calibration's world may be): it sees at `X'`
+    /// what this camera sees at `X`, with the same intrinsics and size. Posed by extrinsics
+    /// `R' = R · rotationᵀ`, `t' = t − R' · offset` ([`Camera::with_extrinsics`]).
+    ///
+    /// ```
+    /// use diffsil::{Camera, Mat3, Vec3};
+    ///
+    /// let camera = Camera::perspective(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, 0.8, 64, 48);
+    /// // The world whose up is +z, moved 2 units along x.
+    /// let (z_up, offset) = (Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y), Vec3::new(2.0, 0.0, 0.0));
+    /// let moved = camera.in_world(z_up, offset);
+    /// let p = Vec3::new(0.1, 0.4, -0.2);
+    /// let (a, b) = (camera.params().project(p).0, moved.params().project(z_up * p + offset).0);
+    /// assert!((a - b).length() < 1e-4);
+    /// ```
+    pub fn in_world(self, rotation: Mat3, offset: Vec3) -> Camera {
+        let e = self.opencv_extrinsics();
+        let rotation = e.rotation * rotation.transpose();
+        self.with_extrinsics(Extrinsics { rotation, translation: e.translation - rotation * offset })
+    }
+
     /// The world → camera pose in OpenCV axes, for any camera: [`Camera::extrinsics`] when set,
     /// otherwise the look-at pose's.
     pub fn opencv_extrinsics(&self) -> Extrinsics {

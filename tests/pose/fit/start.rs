@@ -11,13 +11,6 @@ use glam::{Mat3, Quat};
 
 use super::facing::centre;
 
-/// `camera` in the world `X' = q X + offset`: the same pixels for the same points.
-fn in_world(camera: &Camera, q: Mat3, offset: Vec3) -> Camera {
-    let e = camera.opencv_extrinsics();
-    let rotation = e.rotation * q.transpose();
-    camera.with_extrinsics(Extrinsics { rotation, translation: e.translation - rotation * offset })
-}
-
 #[test]
 fn the_cameras_up_is_the_worlds() {
     let figure = builtin_figure();
@@ -28,13 +21,13 @@ fn the_cameras_up_is_the_worlds() {
     assert_eq!(world_up(&ring), Vec3::Y);
     // The same cameras in a world whose up is +z, then 20° and 40° from +y.
     let z_up = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
-    let turned: Vec<Camera> = ring.iter().map(|c| in_world(c, z_up, Vec3::ZERO)).collect();
+    let turned: Vec<Camera> = ring.iter().map(|c| c.in_world(z_up, Vec3::ZERO)).collect();
     let up = cameras_up(&turned).unwrap();
     assert!((up - Vec3::Z).length() < 1e-5, "{up}");
     assert_eq!(world_up(&turned), Vec3::Z);
     for (degrees, snapped) in [(20f32, true), (40.0, false)] {
         let q = Mat3::from_rotation_x(degrees.to_radians());
-        let tilted: Vec<Camera> = ring.iter().map(|c| in_world(c, q, Vec3::ZERO)).collect();
+        let tilted: Vec<Camera> = ring.iter().map(|c| c.in_world(q, Vec3::ZERO)).collect();
         let expected = if snapped { Vec3::Y } else { q * Vec3::Y };
         assert!((world_up(&tilted) - expected).length() < 1e-5, "{degrees}°: {}", world_up(&tilted));
     }
@@ -80,7 +73,7 @@ fn the_start_stands_where_the_masks_place_the_subject_in_any_world() {
         Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y),
         Mat3::from_diagonal(Vec3::new(1.0, -1.0, -1.0)),
     ] {
-        let cameras: Vec<Camera> = ring.iter().map(|c| in_world(c, q, offset)).collect();
+        let cameras: Vec<Camera> = ring.iter().map(|c| c.in_world(q, offset)).collect();
         let start = start_from_masks(&model, &cameras, &masks, &mut renderer, None).unwrap();
         assert!((start.up - q * Vec3::Y).length() < 1e-5, "up {}", start.up);
         let there: Vec<Vec3> = truth.iter().map(|p| q * *p + offset).collect();
