@@ -4,16 +4,19 @@ use glam::Vec3;
 
 use crate::{Camera, Mesh, Orbit};
 
-/// Cameras on a circle around `around.target`: `views` azimuths evenly spaced from
+/// Orbits on a circle around `around.target`: `views` azimuths evenly spaced from
 /// `around.azimuth` (0°, 90°, 180°, 270° for four views from azimuth 0), all with `around`'s
-/// elevation, distance and vertical field of view, square `resolution`.
-pub fn orbit_cameras(around: Orbit, views: u32, resolution: u32) -> Vec<Camera> {
+/// elevation, distance and vertical field of view. [`Orbit::camera`] makes each a camera of any
+/// size.
+pub fn ring_orbits(around: Orbit, views: u32) -> Vec<Orbit> {
     (0..views)
-        .map(|k| {
-            let azimuth = around.azimuth + std::f32::consts::TAU * k as f32 / views as f32;
-            Orbit { azimuth, ..around }.camera(resolution, resolution)
-        })
+        .map(|k| Orbit { azimuth: around.azimuth + std::f32::consts::TAU * k as f32 / views as f32, ..around })
         .collect()
+}
+
+/// Cameras on a circle around `around.target`: [`ring_orbits`], square `resolution`.
+pub fn orbit_cameras(around: Orbit, views: u32, resolution: u32) -> Vec<Camera> {
+    ring_orbits(around, views).iter().map(|o| o.camera(resolution, resolution)).collect()
 }
 
 /// Cameras framing `mesh`: [`orbit_cameras`] aimed at its bounding-box centre, far enough that

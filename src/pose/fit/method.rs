@@ -2,6 +2,7 @@
 
 use std::ops::ControlFlow;
 
+use super::facing_run::{run_from_runner_up, runner_up, FacingRun};
 use super::pass::{run_pass, Pass};
 use super::polish::PolishReport;
 use super::restart::{restarts_after_first_pass, RestartReport};
@@ -15,7 +16,8 @@ pub struct Fitted {
     /// The fit at its final pose; [`PoseFit::pose`] is the result.
     pub fit: PoseFit,
     /// The facing the fit kept, in radians: the one of [`FitOptions::facings`] whose starting
-    /// poses ended the hypothesis phase lowest; 0 without facings.
+    /// poses ended the hypothesis phase lowest, or the runner-up where the pass from it ended
+    /// lower ([`Fitted::facing_run`]); 0 without facings.
     pub facing: f32,
     /// Steps, hypotheses' energies, the final energy and why it stopped (of the first run's
     /// descent, before its swap test).
@@ -32,9 +34,25 @@ pub struct Fitted {
     /// [`FitOptions::thinned_final_run`]); `None` when not looked at (all three switched off, a
     /// pose-less fit, a cancelled run).
     pub restart: Option<RestartReport>,
+    /// The pass from the runner-up facing ([`FitOptions::facing_within`]); `None` where it did
+    /// not run (one facing, none within the bound, a cancelled first pass).
+    pub facing_run: Option<FacingRun>,
     /// The polish that ends the fit ([`FitOptions::polish_steps`], [`PoseFit::polish`]); `None`
     /// when it did not run (0 steps, a cancelled run).
     pub polish: Option<PolishReport>,
+}
+
+impl Fitted {
+    /// The Adam steps of the fit's descents: the first run's, the runs from the crossed legs,
+    /// the pass from the runner-up facing, the restarts' and the polish's (the swap test's and the crossed pose's short refinements
+    /// are not counted).
+    pub fn steps(&self) -> u32 {
+        self.report.steps
+            + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
+            + self.facing_run.as_ref().map_or(0, FacingRun::steps)
+            + self.restart.as_ref().map_or(0, |r| r.steps())
+            + self.polish.as_ref().map_or(0, |p| p.steps)
+    }
 }
 
 /// Fits `model`'s pose (and shape, with `fit_shape`) to the `targets` (one silhouette per
@@ -49,7 +67,10 @@ pub struct Fitted {
 /// refined a few steps ([`FitOptions::swap_steps`]) and up to three more runs start from them
 /// (with starting poses about them, from them alone, and, where neither of those ends below the
 /// first run, with the starting poses about them without the coarsest stage); the lowest end is
-/// kept. Last, where the result still misses a piece of a target at least two pixels wide
+/// kept. With several [`FitOptions::facings`], where a second facing ended the first steps
+/// nearly as low as the chosen one ([`FitOptions::facing_within`]), all of that runs again from
+/// that facing and the lower end is kept ([`Fitted::facing_run`]). Last, where the result still
+/// misses a piece of a target at least two pixels wide
 /// ([`misfit_blocks`](super::misfit_blocks)), all of that runs once more from the arms swung
 /// ([`FitOptions::restart_arm_swing`]), and where the targets look thinner than the body (the
 /// outline nuisance at or below [`FitOptions::thinned_below`]) once from each family of
@@ -129,19 +150,36 @@ pub fn fit(
     let one_facing = FitOptions { facings: Vec::new(), ..options.clone() };
     let first = run_pass(&mut fit, &one_facing, &schedule, &hypotheses, outline_rate, &mut on_step)?;
     let per_facing = hypotheses.len() / options.facings.len().max(1);
-    let chosen = first.report.chosen / per_facing.max(1);
+    let starts_of = |k: usize| &hypotheses[k * per_facing..(k + 1) * per_facing];
+    let faced = |k: usize| FitOptions { initial: starts_of(k).first().cloned(), ..one_facing.clone() };
+    let mut chosen = first.report.chosen / per_facing.max(1);
+    // A second facing about as near after the phase: its own pass, the lower end kept.
+    let runner_up = runner_up(&first.report.hypothesis_energies, options.facings.len(), options.facing_within);
+    let facing_run = match runner_up {
+        Some((k, ratio)) if !first.cancelled() => {
+            let runner = (starts_of(k), options.facings[k], ratio);
+            let run =
+                run_from_runner_up(&mut fit, &faced(k), &schedule, runner, outline_rate, first.steps(), &mut on_step)?;
+            if run.kept {
+                chosen = k;
+            }
+            Some(run)
+        }
+        _ => None,
+    };
     let facing = options.facings.get(chosen).copied().unwrap_or(0.0);
-    let facing_starts = &hypotheses[chosen * per_facing..(chosen + 1) * per_facing];
-    let faced = FitOptions { initial: facing_starts.first().cloned(), ..one_facing };
+    let before_restarts = first.steps() + facing_run.as_ref().map_or(0, FacingRun::steps);
     let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty() || options.thinned_final_run;
-    let restart = if options.fit_pose && restarts && !first.cancelled() {
-        Some(restarts_after_first_pass(&mut fit, &faced, facing_starts, first.steps(), outline_rate, &mut on_step)?)
+    let cancelled = first.cancelled() || facing_run.as_ref().is_some_and(FacingRun::cancelled);
+    let restart = if options.fit_pose && restarts && !cancelled {
+        let (faced, starts) = (faced(chosen), starts_of(chosen));
+        Some(restarts_after_first_pass(&mut fit, &faced, starts, before_restarts, outline_rate, &mut on_step)?)
     } else {
         None
     };
-    let cancelled = first.cancelled() || restart.as_ref().is_some_and(RestartReport::cancelled);
+    let cancelled = cancelled || restart.as_ref().is_some_and(RestartReport::cancelled);
     let polish = if options.polish_steps > 0 && !cancelled {
-        let offset = first.steps() + restart.as_ref().map_or(0, |r| r.steps());
+        let offset = before_restarts + restart.as_ref().map_or(0, |r| r.steps());
         let report = fit.polish(options.polish_steps, |fit, progress| {
             on_step(fit, &Progress { step: offset + progress.step, ..*progress })
         })?;
@@ -150,5 +188,5 @@ pub fn fit(
         None
     };
     let Pass { report, swap, crossed_legs } = first;
-    Ok(Fitted { fit, facing, report, swap, crossed_legs, restart, polish })
+    Ok(Fitted { fit, facing, report, swap, crossed_legs, facing_run, restart, polish })
 }

@@ -213,7 +213,13 @@
 //!     limbs bend to fit them). Where the subject may face any way, the starting poses are
 //!     tried turned to each facing ([`FitOptions::ANY_FACING`]: four, a quarter turn apart) in
 //!     the same hypothesis phase, and the lowest energy after it decides the facing; the
-//!     phase's steps are then four times as many.
+//!     phase's steps are then four times as many. A subject turned about halfway between two
+//!     facings fits both about equally well after the phase, and the wrong one ends a limb or
+//!     the trunk turned part of the way: where the second-lowest facing is within
+//!     [`FitOptions::facing_within`] of the lowest, the first pass runs from it as well and
+//!     the lower end is kept ([`FacingRun`]). On hard 640 × 480 masks of irregular rigs, the
+//!     body turned by 0°, 45°, …, 315° (seeds 1–6 each): one of 48 ended 71.6 mm off without
+//!     it, none with it.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long
@@ -225,6 +231,7 @@
 mod cameras;
 mod crossed_runs;
 mod descent;
+mod facing_run;
 mod inflation;
 mod method;
 mod options;
@@ -238,12 +245,13 @@ mod restart;
 mod schedule;
 mod start;
 
-pub use cameras::{framing_cameras, framing_orbit, framing_ring, orbit_cameras, RAISED_ELEVATION_DEG};
+pub use cameras::{framing_cameras, framing_orbit, framing_ring, orbit_cameras, ring_orbits, RAISED_ELEVATION_DEG};
 pub use crossed_runs::{CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart};
 pub use descent::{
     crossed_legs, head_turns, limb_swaps, FitSettings, FitState, Free, LimbSwap, PoseFit, StepReport, SwapCandidate,
     SwapReport, SwapScreen, SwapTest,
 };
+pub use facing_run::FacingRun;
 pub use inflation::vertex_normals;
 pub use method::{fit, Fitted};
 pub use options::FitOptions;

@@ -1,7 +1,7 @@
 //! Facings (`FitOptions::facings`, `turned_about_vertical`): a turn about the vertical keeps the
 //! body's centre and moves it rigidly; the plan tries each facing's starting poses; a body facing
 //! away from the model's front is fitted the right way round with `FitOptions::ANY_FACING` and
-//! back to front without it.
+//! back to front without it; the runner-up facing's pass (`FitOptions::facing_within`).
 
 use std::f32::consts::PI;
 
@@ -105,4 +105,65 @@ fn a_body_facing_away_is_fitted_the_right_way_round_from_any_facing() {
     let (front, front_error) = run(Vec::new());
     assert_eq!((facing, front), (PI, 0.0), "the facing kept");
     assert!(error < 0.3 * front_error, "per-vertex error {error:.4} from any facing, {front_error:.4} from the front");
+}
+
+/// `FitOptions::facing_within`: the runner-up facing's pass runs where its energy after the
+/// first steps is within the bound (here any), its steps follow the first pass's, and the
+/// lower end is kept. The built-in figure facing the model's front, 120 steps: at 32² the
+/// phase takes its back for its front (so it does at 48², and turned away it takes the front
+/// for the back), and the pass from the runner-up, kept, fits it the right way round; at 40²
+/// the phase tells them apart, the runner-up's pass ends higher and the fit is left exactly
+/// where the first pass ended (the same vertices as with the bound at 0, where it never runs).
+#[test]
+fn the_runner_up_facing_runs_its_own_pass_and_the_lower_end_is_kept() {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    let truth_vertices = model.skin(&truth).unwrap();
+    for (resolution, mistaken) in [(32, true), (40, false)] {
+        let (model, cameras, targets) = super::call::views_of(&truth, resolution);
+        let run = |facing_within: f64| {
+            let options = FitOptions {
+                steps: 120,
+                facings: vec![0.0, PI],
+                facing_within,
+                restart_arm_swing: 0.0,
+                thinned_restarts: Vec::new(),
+                thinned_final_run: false,
+                polish_steps: 0,
+                ..FitOptions::default()
+            };
+            let (mut calls, mut last) = (0u32, 0u32);
+            let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, progress| {
+                calls += 1;
+                last = progress.step;
+                std::ops::ControlFlow::Continue(())
+            })
+            .unwrap();
+            (fitted, calls, last)
+        };
+        let (alone, _, _) = run(0.0);
+        assert!(alone.facing_run.is_none(), "{resolution}²: a bound of 0 never runs the runner-up");
+        assert_eq!(alone.facing, if mistaken { PI } else { 0.0 }, "{resolution}²: the phase's facing");
+        let (mut fitted, calls, last) = run(1e9);
+        let runner = fitted.facing_run.clone().expect("the runner-up's pass ran");
+        assert_eq!(runner.facing, PI - alone.facing, "{resolution}²: the other facing");
+        assert!(runner.ratio >= 1.0, "{resolution}²: {}", runner.ratio);
+        assert_eq!((calls, last), (fitted.steps(), fitted.steps()), "{resolution}²: every step reported, in order");
+        assert!(fitted.steps() > alone.steps());
+        let (first, end) = (runner.first_energy, runner.energy.unwrap());
+        assert_eq!(runner.kept, mistaken, "{resolution}²: {first:.3e} the first pass, {end:.3e} the runner-up's");
+        assert_eq!(fitted.facing, 0.0, "{resolution}²: the facing kept");
+        let error = |f: &diffsil::pose::fit::PoseFit| per_vertex_error(&f.vertices().unwrap(), &truth_vertices);
+        if mistaken {
+            assert_eq!(fitted.fit.energy().unwrap(), end);
+            let (kept, first_pass) = (error(&fitted.fit), error(&alone.fit));
+            assert!(kept < 0.1 * first_pass, "per-vertex error {kept:.4} kept, {first_pass:.4} the first pass's");
+        } else {
+            assert_eq!(fitted.fit.vertices().unwrap(), alone.fit.vertices().unwrap(), "put back where it ended");
+        }
+    }
+    for bad in [f64::NAN, -1.0, f64::INFINITY] {
+        let options = FitOptions { facing_within: bad, ..FitOptions::default() };
+        assert!(matches!(options.validate(), Err(Error::InvalidSettings(_))), "{bad}");
+    }
 }
