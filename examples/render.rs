@@ -27,7 +27,7 @@ use diffsil::{loss, shapes, Backend, BackwardStats, Camera, Image, Mesh, Orbit, 
 
 mod common;
 pub use common::BackendName;
-use common::{elevation, finite, median, positive};
+use common::{elevation, finite, median, positive, size};
 
 /// Command-line options (`render --help`).
 #[derive(Clone, Debug, PartialEq, Parser)]
@@ -69,7 +69,7 @@ pub struct Options {
     #[arg(long, value_name = "H", default_value_t = 2.4, value_parser = positive, allow_negative_numbers = true)]
     pub view_height: f32,
     /// Image size in pixels, N (square) or WxH [default: 512; 1024 with --memory]
-    #[arg(long = "resolution", value_name = "N|WxH", value_parser = parse_size)]
+    #[arg(long = "resolution", value_name = "N|WxH", value_parser = size)]
     pub size: Option<(u32, u32)>,
     /// Samples per pixel side, 1 (no anti-aliasing) to 16
     #[arg(long, value_name = "F", default_value_t = 4)]
@@ -126,16 +126,6 @@ fn fov(value: &str) -> Result<f32, String> {
         Ok(x)
     } else {
         Err("use a value strictly between 0 and 180 degrees".into())
-    }
-}
-
-/// Parses a size: `N` (square) or `WxH`. Ranges the renderer checks itself (resolution, F) are
-/// left to it, so its messages apply.
-fn parse_size(value: &str) -> Result<(u32, u32), String> {
-    let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("{e} (use N or WxH)"));
-    match value.split_once(['x', 'X']) {
-        Some((w, h)) => Ok((parse(w)?, parse(h)?)),
-        None => parse(value).map(|n| (n, n)),
     }
 }
 

@@ -7,6 +7,11 @@
 #   --table   rows:   the table of *Robustness and real bodies* (default; about 2,400 fits)
 #             wider:  the wider check on unseen seeds (1,610 fits)
 #             table2: paper Table 2 on the body and the figure (`--ablation 30`)
+#             user-data: the README's *Your own masks and cameras* (330 fits): hard 640x480
+#                     masks of irregular rigs fitted from the masks and cameras alone
+#                     (`--as-user-data`), the body turned, in turned and moved worlds, and at
+#                     other working resolutions (`--fit-height`; 0, the masks as they are,
+#                     takes about 20 s a fit)
 #   --only    run only the rows whose label matches this extended regular expression (awk's)
 #   --jobs    rows run at once, each one process on one thread, its seeds one after another
 #             (default: the number of cores)
@@ -107,7 +112,28 @@ table2-body|--ablation 30
 table2-figure|--figure --ablation 30
 EOF
   ;;
-  *) echo "unknown --table '$table' (rows, wider or table2)" >&2; exit 2 ;;
+  user-data)
+    # The masks as a camera and a segmentation give them: 640x480, hard, irregular rigs.
+    u='--views irregular --resolution 640x480 --threshold 0.5 --as-user-data'
+    for turn in 0 45 90 135 180 225 270 315; do
+      echo "facing-auto-turned-$turn|--seeds 1-6 $u --turn $turn"
+      echo "facing-front-turned-$turn|--seeds 1-6 $u --turn $turn --facing 0"
+    done
+    cat <<EOF
+up-z|--seeds 1-6 $u --world-up +z
+up-minus-z|--seeds 1-6 $u --world-up -z
+up-tilted-40|--seeds 1-6 $u --world-up 0,0.766,0.643
+up-z-kept-y|--seeds 1-6 $u --world-up +z --up +y
+where-origin|--seeds 1-30 $u
+where-origin-unplaced|--seeds 1-30 $u --no-placement
+where-2.9m|--seeds 1-30 $u --world-offset 2.5,0,-1.5
+where-2.9m-unplaced|--seeds 1-30 $u --world-offset 2.5,0,-1.5 --no-placement
+fit-height-0|--seeds 1-30 $u --fit-height 0
+fit-height-48|--seeds 1-30 $u --fit-height 48
+fit-height-96|--seeds 1-30 $u --fit-height 96
+EOF
+  ;;
+  *) echo "unknown --table '$table' (rows, wider, table2 or user-data)" >&2; exit 2 ;;
   esac
 }
 

@@ -1,6 +1,6 @@
 //! What the `render`, `gradient_maps` and `fit_pose` examples share: the `--backend` option, the
 //! checks of their numeric options (as clap value parsers, so a bad value is reported by clap
-//! with the option's name), loading a mesh by its extension, and a median.
+//! with the option's name), image sizes `N` or `WxH`, loading a mesh by its extension, and a median.
 
 // Each example uses a part of this module.
 #![allow(dead_code)]
@@ -81,5 +81,15 @@ pub fn median(mut v: Vec<f64>) -> f64 {
         v[n / 2]
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Parses a size: `N` (square) or `WxH`. Ranges the renderer checks itself (resolution, F) are
+/// left to it, so its messages apply.
+pub fn size(value: &str) -> Result<(u32, u32), String> {
+    let parse = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("{e} (use N or WxH)"));
+    match value.split_once(['x', 'X']) {
+        Some((w, h)) => Ok((parse(w)?, parse(h)?)),
+        None => parse(value).map(|n| (n, n)),
     }
 }

@@ -38,22 +38,24 @@ pub fn evaluate(
     cases: Vec<(String, Options)>,
 ) -> Result<(), Box<dyn std::error::Error>> {
     println!(
-        "{name}: {what}, {} {:?} views at {}², F = {}, masks {:?}, {}",
+        "{name}: {what}, {} {:?} views at {}, F = {}, masks {:?}{}, {}{}",
         o.view_count,
         o.views,
-        o.resolution,
+        o.resolution_text(),
         o.supersample,
         o.mask_noise,
-        if o.plain { "plain descent" } else { "fit::fit" }
+        o.threshold.map_or(String::new(), |t| format!(" (hardened at {t})")),
+        if o.plain { "plain descent" } else { "fit::fit" },
+        if o.as_user_data { " from the masks and cameras alone (--as-user-data)" } else { "" }
     );
     let (mut errors, mut seconds, mut steps, mut second_runs, mut restarts) = (Vec::new(), 0.0, 0u64, 0, 0);
-    let mut thinned = 0;
+    let (mut thinned, mut facing_runs) = (0, 0);
     let mut height = 0.0;
     let cpu_before = cpu_seconds();
     for (label, case) in cases {
         let outcome = fit_seed(model, &case, false, true)?;
         println!(
-            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}{}{}",
+            "{label}: {:.1} mm, {} steps ({:?}), {:.2} s{}{}{}{}{}",
             outcome.error_m * 1000.0,
             outcome.steps,
             outcome.stop,
@@ -73,6 +75,11 @@ pub fn evaluate(
                 }
                 Some((false, CrossedLegsEnd::FirstRun)) | None => "",
             },
+            match outcome.facing_run {
+                Some(true) => ", runner-up facing: kept",
+                Some(false) => ", runner-up facing: not kept",
+                None => "",
+            },
             match outcome.restart {
                 Some(true) => ", restart: kept",
                 Some(false) => ", restart: not kept",
@@ -86,6 +93,7 @@ pub fn evaluate(
         second_runs += usize::from(matches!(outcome.crossed, Some((true, _))));
         restarts += usize::from(outcome.restart.is_some());
         thinned += usize::from(outcome.thinned);
+        facing_runs += usize::from(outcome.facing_run.is_some());
         height = outcome.height_m;
     }
     let fits = errors.len() as f64;
@@ -98,7 +106,7 @@ pub fn evaluate(
     println!(
         "summary: median={:.1}mm p90={:.1}mm worst={:.1}mm failures={failures}/{} (above {limit_mm:.0} mm = 2% of \
          {:.2} m) wall_s_per_fit={:.2} cpu_s_per_fit={cpu} steps_per_fit={:.0} second_runs={second_runs} \
-         restarts={restarts} thinned={thinned}",
+         restarts={restarts} thinned={thinned} facing_runs={facing_runs}",
         median(errors.clone()),
         quantile(&errors, 0.9),
         errors.iter().copied().fold(0.0, f64::max),
@@ -127,7 +135,7 @@ pub fn ablation(model: &SkinnedMesh, name: &str, o: &Options, seeds: u32) -> Res
             let mut errors = Vec::new();
             let mut seconds = Vec::new();
             for seed in 1..=seeds as u64 {
-                let run = Options { resolution, supersample, seed, ..o.clone() };
+                let run = Options { resolution: (resolution, resolution), supersample, seed, ..o.clone() };
                 let outcome = fit_seed(model, &run, false, true)?;
                 errors.push(outcome.error_m * 1000.0);
                 seconds.push(outcome.seconds);

@@ -10,6 +10,8 @@
 //! cargo run --release --example fit_pose -- --ablation 10         # paper Table 2 over 10 seeds
 //! cargo run --release --example fit_pose -- --targets a.png,b.png --cameras cameras.json --save
 //! cargo run --release --example fit_pose -- --seed 3 --turn 180 --export d   # as --targets data
+//! cargo run --release --example fit_pose -- --seeds 1-6 --views irregular --resolution 640x480 \
+//!     --threshold 0.5 --turn 135 --as-user-data                  # the same, fitted over seeds
 //! ```
 //!
 //! A random plausible ground-truth pose is drawn from the seed (joint limits from the joints'
@@ -29,7 +31,9 @@
 //! where the body is about `--fit-height` pixels tall, with no ground truth (unless `--truth`
 //! gives one), so the report is each view's silhouette IoU and energy before and after.
 //! `--export DIR` writes the example's own targets, cameras and truth in those formats instead
-//! of fitting them.
+//! of fitting them; `--as-user-data` fits them as that path would, in one process (with
+//! `--resolution WxH` a camera's image size, `--threshold` hard masks, `--world-up` and
+//! `--world-offset` a calibration's world).
 
 mod evaluate;
 mod masks;
@@ -57,27 +61,64 @@ mod common;
 use evaluate::{ablation, evaluate, motion_frames};
 pub use options::{fit_options, load_model, Facing, Options};
 pub use user_fit::fit_user_data;
-use user_fit::save_fit;
+use user_fit::{fit_masks, save_fit, UserData};
 
-/// What one fit measured.
-struct Outcome {
-    error_m: f64,
+/// What one fit of the example's own targets measured.
+pub struct Outcome {
+    /// The per-vertex error against the ground truth, in the model's units.
+    pub error_m: f64,
     /// Largest extent of the model's rest pose (its height for a standing body).
-    height_m: f64,
-    seconds: f64,
-    backend: String,
-    /// Adam steps, the runs from the crossed legs included.
-    steps: u32,
-    stop: Stop,
+    pub height_m: f64,
+    /// Wall-clock seconds of the fit.
+    pub seconds: f64,
+    /// The renderer's backend.
+    pub backend: String,
+    /// Adam steps ([`Fitted::steps`]).
+    pub steps: u32,
+    /// Why the first run stopped.
+    pub stop: Stop,
     /// The swap the swap test kept, if any.
-    swap: Option<LimbSwap>,
+    pub swap: Option<LimbSwap>,
     /// Whether the runs from the legs crossed over ran (`FitOptions::crossed_legs_within`),
     /// and where the fit ends; `None` when the crossed pose was not looked at.
-    crossed: Option<(bool, CrossedLegsEnd)>,
+    pub crossed: Option<(bool, CrossedLegsEnd)>,
     /// Whether the restart ran and, if so, whether the fit ends at it (`FitOptions::restart_arm_swing`).
-    restart: Option<bool>,
+    pub restart: Option<bool>,
     /// Whether the fit found its targets thinned (`FitOptions::thinned_below`).
-    thinned: bool,
+    pub thinned: bool,
+    /// Whether the pass from the runner-up facing ran (`FitOptions::facing_within`) and, if so,
+    /// whether the fit ends from it.
+    pub facing_run: Option<bool>,
+}
+
+impl Outcome {
+    /// What `fitted` did, with its per-vertex error `error_m`, the model's height `height_m`
+    /// and the fit's wall `seconds`.
+    fn of(fitted: &Fitted, error_m: f64, height_m: f64, seconds: f64) -> Outcome {
+        let restart = fitted.restart.as_ref().filter(|r| !r.runs.is_empty());
+        Outcome {
+            error_m,
+            height_m,
+            seconds,
+            backend: fitted.fit.renderer().backend_name(),
+            steps: fitted.steps(),
+            stop: fitted.report.stop,
+            swap: fitted.swap.as_ref().and_then(|s| s.kept),
+            crossed: fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end)),
+            restart: restart.map(|r| r.kept.is_some()),
+            thinned: fitted.restart.as_ref().is_some_and(|r| r.thinned),
+            facing_run: fitted.facing_run.as_ref().map(|f| f.kept),
+        }
+    }
+}
+
+/// The largest extent of `mesh`'s bounding box (a standing body's height).
+fn largest_extent(mesh: &Mesh) -> f64 {
+    let (lo, hi) = mesh
+        .positions()
+        .iter()
+        .fold((diffsil::Vec3::splat(f32::MAX), diffsil::Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    f64::from((hi - lo).max_element())
 }
 
 /// The cameras and masks downsampled together by [`downsample_factor`] for `height` (the
@@ -110,7 +151,8 @@ struct OwnTargets {
     rig: String,
 }
 
-/// Draws `o`'s ground truth (`--seed`, `--shape`, turned by `--turn`) and renders its targets.
+/// Draws `o`'s ground truth (`--seed`, `--shape`, turned by `--turn`) and renders its targets
+/// (hardened by `--threshold`, spoiled by `--mask-noise`).
 fn own_targets(
     model: &SkinnedMesh,
     o: &Options,
@@ -134,7 +176,10 @@ fn own_targets(
     let rig_seed = o.rig_seed.unwrap_or(o.seed);
     let (cameras, rig) = rig::cameras(o.views, &rest_mesh, o.view_count, o.resolution, rig_seed);
     let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
-    let clean = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
+    let mut clean = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
+    if let Some(threshold) = o.threshold {
+        clean = clean.iter().map(|t| masks::harden(t, threshold)).collect();
+    }
     let targets = clean
         .iter()
         .enumerate()
@@ -143,18 +188,47 @@ fn own_targets(
     Ok(OwnTargets { truth, betas, truth_vertices, rest_mesh, cameras, targets, rig })
 }
 
-/// Fits one seed; writes pictures when `pictures` is set.
-fn fit_seed(
+/// Moves `own`'s cameras and truth into the world of `--world-up` and `--world-offset`
+/// (`X' = Q X + offset`, the cameras seeing there what they saw), where given.
+fn in_given_world(model: &SkinnedMesh, mut own: OwnTargets, o: &Options) -> diffsil::Result<OwnTargets> {
+    if o.world_up.is_none() && o.world_offset.is_none() {
+        return Ok(own);
+    }
+    let q =
+        glam::Quat::from_scaled_axis(upright(model.joint_count(), o.world_up.unwrap_or(diffsil::Vec3::Y))?.orientation);
+    let offset = o.world_offset.unwrap_or(diffsil::Vec3::ZERO);
+    for camera in &mut own.cameras {
+        *camera = camera.in_world(glam::Mat3::from_quat(q), offset);
+    }
+    let orientation = (q * glam::Quat::from_scaled_axis(own.truth.orientation)).to_scaled_axis();
+    own.truth = Pose { orientation, translation: q * own.truth.translation + offset, ..own.truth };
+    own.truth_vertices = model.skin_shaped(&own.truth, &own.betas)?;
+    Ok(own)
+}
+
+/// Fits one seed's own targets (with `--as-user-data` from its masks and cameras alone);
+/// writes pictures when `pictures` is set and prints the fit's course unless `quiet`.
+pub fn fit_seed(
     model: &SkinnedMesh,
     o: &Options,
     pictures: bool,
     quiet: bool,
 ) -> Result<Outcome, Box<dyn std::error::Error>> {
     let mut renderer = renderer_for(o)?;
-    let OwnTargets { truth_vertices, rest_mesh, cameras, targets, rig, .. } = own_targets(model, o, &mut renderer)?;
+    let own = in_given_world(model, own_targets(model, o, &mut renderer)?, o)?;
     if !quiet {
-        print!("{rig}");
+        print!("{}", own.rig);
     }
+    if o.as_user_data {
+        // The masks and cameras alone, as `--targets` would see them (pictures unless quiet).
+        let height_m = largest_extent(&own.rest_mesh);
+        let names = (0..own.targets.len()).map(|k| format!("camera {k}")).collect();
+        let data = UserData { cameras: own.cameras, targets: own.targets, names, truth: Some(own.truth_vertices) };
+        let (outcome, fitted) = fit_masks(model, o, data, quiet || !pictures)?;
+        let error_m = outcome.error_m.ok_or("the fit reported no error against the truth")?;
+        return Ok(Outcome::of(&fitted, error_m, height_m, outcome.seconds));
+    }
+    let OwnTargets { truth_vertices, rest_mesh, cameras, targets, .. } = own;
     // A given `--facing` starts the model turned (`auto` tries four facings: `fit_options`).
     let turned = match o.facing() {
         Facing::Degrees(d) if d != 0.0 => {
@@ -186,12 +260,6 @@ fn fit_seed(
                 progress.report.silhouette, progress.report.self_intersection
             ))
         })?;
-    let swap = fitted.swap.as_ref().and_then(|s| s.kept);
-    let crossed = fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end));
-    let crossed_steps = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps());
-    let restart = fitted.restart.as_ref().filter(|r| !r.runs.is_empty()).map(|r| (r.kept.is_some(), r.steps()));
-    let polish_steps = fitted.polish.as_ref().map_or(0, |p| p.steps);
-    let thinned = fitted.restart.as_ref().is_some_and(|r| r.thinned);
     if !quiet {
         report::print_fitted(&fitted);
     }
@@ -206,32 +274,14 @@ fn fit_seed(
         println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
     }
     let error_m = per_vertex_error(&fit.vertices()?, &truth_vertices);
-    let (lo, hi) = rest_mesh
-        .positions()
-        .iter()
-        .fold((diffsil::Vec3::splat(f32::MAX), diffsil::Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-    let height_m = f64::from((hi - lo).max_element());
-
     if let Some(before) = before {
         sheet::save_comparison_sheets(&o.out, &targets, &before, &fit.render()?)?;
         if o.save {
             save_fit(model, &fit, &o.out)?;
         }
     }
-    let backend = fit.renderer().backend_name();
-    let steps = run.steps + crossed_steps + restart.map_or(0, |r| r.1) + polish_steps;
-    Ok(Outcome {
-        error_m,
-        height_m,
-        seconds,
-        backend,
-        steps,
-        stop: run.stop,
-        swap,
-        crossed,
-        restart: restart.map(|r| r.0),
-        thinned,
-    })
+    let fitted = Fitted { fit, report: run, ..fitted };
+    Ok(Outcome::of(&fitted, error_m, largest_extent(&rest_mesh), seconds))
 }
 
 /// Runs the command line; a failure is reported on stderr with exit status 1.
@@ -299,13 +349,13 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
         return evaluate(&model, &name, o, &format!("seeds {first}–{last}"), cases);
     }
     println!(
-        "{name}: {} vertices, {} triangles, {} joints; {} {:?} views at {}², F = {}, seed {}",
+        "{name}: {} vertices, {} triangles, {} joints; {} {:?} views at {}, F = {}, seed {}",
         model.vertex_count(),
         model.mesh.triangles().len(),
         model.joint_count(),
         o.view_count,
         o.views,
-        o.resolution,
+        o.resolution_text(),
         o.supersample,
         o.seed
     );
@@ -326,22 +376,7 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
 /// `--truth`.
 fn export(model: &SkinnedMesh, o: &Options, dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     let mut renderer = renderer_for(o)?;
-    let mut own = own_targets(model, o, &mut renderer)?;
-    // `--world-up`, `--world-offset`: the world X' = Q X + offset, cameras and truth alike.
-    if o.world_up.is_some() || o.world_offset.is_some() {
-        let q = glam::Quat::from_scaled_axis(
-            upright(model.joint_count(), o.world_up.unwrap_or(diffsil::Vec3::Y))?.orientation,
-        );
-        let offset = o.world_offset.unwrap_or(diffsil::Vec3::ZERO);
-        for camera in &mut own.cameras {
-            let e = camera.opencv_extrinsics();
-            let rotation = e.rotation * glam::Mat3::from_quat(q).transpose();
-            *camera = camera
-                .with_extrinsics(diffsil::Extrinsics { rotation, translation: e.translation - rotation * offset });
-        }
-        let orientation = (q * glam::Quat::from_scaled_axis(own.truth.orientation)).to_scaled_axis();
-        own.truth = Pose { orientation, translation: q * own.truth.translation + offset, ..own.truth };
-    }
+    let own = in_given_world(model, own_targets(model, o, &mut renderer)?, o)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut masks = Vec::new();
     for (k, target) in own.targets.iter().enumerate() {

@@ -11,7 +11,7 @@ use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::Vec3;
 
-use super::common::{finite, BackendName};
+use super::common::{finite, size, BackendName};
 use super::evaluate::seed_range;
 use super::masks::MaskNoise;
 use super::rig::Layout;
@@ -42,6 +42,8 @@ the pose and kept where the energy ends lower (--swap-steps, --swap-refined, --s
 --head-turns adds turns of the head, off by default).
 Same method and settings at every resolution and F."
 )]
+#[command(group(clap::ArgGroup::new("masks_alone").args(["targets", "as_user_data"])))]
+#[command(group(clap::ArgGroup::new("moved_world").args(["export", "as_user_data"])))]
 pub struct Options {
     /// Skinned .gltf/.glb [default: the built-in MakeHuman body, 7,000 vertices, 31 joints, 10
     /// shape targets]
@@ -58,9 +60,10 @@ pub struct Options {
     /// Number of cameras, azimuths evenly spaced (moved at random with irregular), at least 1
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     pub view_count: u32,
-    /// Image side in pixels
-    #[arg(long, value_name = "N", default_value_t = 64)]
-    pub resolution: u32,
+    /// Image size in pixels of the example's own targets, N (square) or WxH (e.g. 640x480, a
+    /// camera's; the cameras' vertical field of view frames the body either way)
+    #[arg(long, value_name = "N|WxH", default_value = "64", value_parser = size)]
+    pub resolution: (u32, u32),
     /// Samples per pixel side, 1 = no anti-aliasing
     #[arg(long, value_name = "F", default_value_t = 4)]
     pub supersample: u32,
@@ -238,9 +241,10 @@ pub struct Options {
     /// (world → camera; optional "near", "far")
     #[arg(long, value_name = "PATH", requires = "targets")]
     pub cameras: Option<PathBuf>,
-    /// Harden `--targets`: 1 where a pixel's value is above X, else 0 [default: keep values in
-    /// [0, 1] as coverage]
-    #[arg(long, value_name = "X", value_parser = finite, requires = "targets")]
+    /// Harden `--targets` (or the example's own targets, before `--mask-noise`, as a
+    /// segmentation's masks are): 1 where a pixel's value is above X, else 0 [default: keep
+    /// values in [0, 1] as coverage]
+    #[arg(long, value_name = "X", value_parser = finite)]
     pub threshold: Option<f32>,
     /// Fit where the subject (the tallest rows of white in any target mask) is at least this
     /// many pixels tall: masks and cameras downsampled by the largest whole factor that keeps it
@@ -249,9 +253,10 @@ pub struct Options {
     /// FIT_SUBJECT_HEIGHT = 64]
     #[arg(long, value_name = "PX", default_value_t = diffsil::pose::fit::FIT_SUBJECT_HEIGHT)]
     pub fit_height: u32,
-    /// Start `--targets` from the model's rest pose where it was built, instead of moved to
-    /// where the masks' centres of coverage meet (`diffsil::pose::fit::triangulate_masks`)
-    #[arg(long, requires = "targets")]
+    /// Start `--targets` (or `--as-user-data`) from the model's rest pose where it was built,
+    /// instead of moved to where the masks' centres of coverage meet
+    /// (`diffsil::pose::fit::triangulate_masks`)
+    #[arg(long, requires = "masks_alone")]
     pub no_placement: bool,
     /// Which way the subject faces, about its vertical (the model's up, stood along `--up`):
     /// `auto` tries the model's front and three quarter turns from it and keeps the facing whose
@@ -259,9 +264,14 @@ pub struct Options {
     /// degrees starts the model turned by that much through its centre and keeps it (the fit
     /// turns a body by itself only part of the way: one facing away from the model's front
     /// ends fitted back to front). `--plain` has no starting poses' steps: `auto` is 0 there
-    /// [default: auto with `--targets`, 0 for the example's own targets]
+    /// [default: auto with `--targets` and `--as-user-data`, 0 for the example's own targets]
     #[arg(long, value_name = "auto|DEG", value_parser = facing)]
     pub facing: Option<Facing>,
+    /// With `--facing auto`: where the second-best facing's energy after the first steps is
+    /// within X times the best one's, the first pass runs from it as well and the lower end is
+    /// kept (`FitOptions::facing_within`); 0: never [default: FitOptions::FACING_WITHIN, 1.25]
+    #[arg(long, value_name = "X", value_parser = finite)]
+    pub facing_within: Option<f32>,
     /// Turn the example's own ground truth by this many degrees about its vertical (e.g. 180:
     /// facing away from the model's front)
     #[arg(long, value_name = "DEG", default_value_t = 0.0, value_parser = finite, conflicts_with = "targets")]
@@ -271,24 +281,31 @@ pub struct Options {
     /// fitting them, for a fit with `--targets`, `--cameras` and `--truth`
     #[arg(long, value_name = "DIR", conflicts_with_all = ["targets", "seeds", "motion", "ablation"])]
     pub export: Option<PathBuf>,
-    /// `--export` in a world whose up is this axis (`+x`, `-x`, `+y`, `-y`, `+z`, `-z`), as a
-    /// calibration's world may be: the cameras and the truth turned by the half or quarter turn
-    /// from +y to it (for -y the half turn about x)
-    #[arg(long, value_name = "AXIS", value_parser = axis, requires = "export")]
+    /// `--export` (or `--as-user-data`) in a world whose up is this axis (`+x`, `-x`, `+y`,
+    /// `-y`, `+z`, `-z`) or direction (`X,Y,Z`), as a calibration's world may be: the cameras
+    /// and the truth turned by the shortest turn from +y to it (for -y the half turn about x)
+    #[arg(long, value_name = "AXIS|X,Y,Z", value_parser = direction, requires = "moved_world", allow_hyphen_values = true)]
     pub world_up: Option<Vec3>,
-    /// `--export` in a world whose origin is this far from the model's (`X,Y,Z` in the model's
-    /// units), as a calibration's origin is wherever its target lay
-    #[arg(long, value_name = "X,Y,Z", value_parser = vector, requires = "export", allow_hyphen_values = true)]
+    /// `--export` (or `--as-user-data`) in a world whose origin is this far from the model's
+    /// (`X,Y,Z` in the model's units), as a calibration's origin is wherever its target lay
+    #[arg(long, value_name = "X,Y,Z", value_parser = vector, requires = "moved_world", allow_hyphen_values = true)]
     pub world_offset: Option<Vec3>,
+    /// Fit the example's own targets as `--targets` data are fitted: from the masks and cameras
+    /// alone (the placement, the up and the facing found from them, the masks downsampled to
+    /// `--fit-height`), reporting the error against the truth; with `--world-up` and
+    /// `--world-offset` in a world turned and moved (what `--export` then `--targets` do, in
+    /// one process and over `--seeds`)
+    #[arg(long, conflicts_with_all = ["targets", "export"])]
+    pub as_user_data: bool,
     /// The ground truth of `--targets` (a pose and shape JSON as `--save` and `--export` write
     /// them): the fit then reports its per-vertex error
     #[arg(long = "truth", value_name = "FILE", requires = "targets")]
     pub truth_file: Option<PathBuf>,
-    /// The world's up in `--cameras`' world, along which the model (upright along +y) is stood:
+    /// The world's up in `--cameras`' world (or `--as-user-data`'s), along which the model (upright along +y) is stood:
     /// `auto` takes the cameras' mean up (`diffsil::pose::fit::world_up`), the nearest axis
     /// where within 30° of one, e.g. +z for a calibration whose target lay on the floor; or one
     /// of `+x`, `-x`, `+y`, `-y`, `+z`, `-z`
-    #[arg(long, value_name = "auto|AXIS", default_value = "auto", value_parser = up, requires = "targets")]
+    #[arg(long, value_name = "auto|AXIS", default_value = "auto", value_parser = up, requires = "masks_alone")]
     pub up: Up,
     /// The pose a fit starts from, when not the rest pose (set by the placement of `--targets`).
     #[arg(skip)]
@@ -302,10 +319,23 @@ pub struct Options {
 }
 
 impl Options {
-    /// `--facing`, or its default: `auto` for `--targets`, the model's front (0) for the
-    /// example's own targets.
+    /// `--resolution` as the reports print it: `64²`, or `640x480`.
+    pub fn resolution_text(&self) -> String {
+        match self.resolution {
+            (w, h) if w == h => format!("{w}²"),
+            (w, h) => format!("{w}x{h}"),
+        }
+    }
+
+    /// `--facing`, or its default: `auto` for `--targets` and `--as-user-data`, the model's
+    /// front (0) for the example's own targets.
     pub fn facing(&self) -> Facing {
-        self.facing.unwrap_or(if self.targets.is_empty() { Facing::Degrees(0.0) } else { Facing::Auto })
+        self.facing.unwrap_or(if self.masks_alone() { Facing::Auto } else { Facing::Degrees(0.0) })
+    }
+
+    /// Whether the fit sees masks and cameras alone: `--targets`, or `--as-user-data`.
+    pub fn masks_alone(&self) -> bool {
+        !self.targets.is_empty() || self.as_user_data
     }
 }
 
@@ -355,6 +385,14 @@ fn axis(value: &str) -> Result<Vec3, String> {
         "-z" => Ok(Vec3::NEG_Z),
         _ => Err(format!("`{value}`: use +x, -x, +y, -y, +z or -z")),
     }
+}
+
+/// Parses a direction: a signed axis ([`axis`]) or `X,Y,Z`, not zero.
+fn direction(value: &str) -> Result<Vec3, String> {
+    axis(value).or_else(|_| match vector(value) {
+        Ok(v) if v.length() > 1e-6 => Ok(v.normalize()),
+        _ => Err(format!("`{value}`: use +x, -x, +y, -y, +z, -z or a direction X,Y,Z other than 0,0,0")),
+    })
 }
 
 /// Parses `X,Y,Z`: three finite numbers.
@@ -431,6 +469,7 @@ pub fn fit_options(o: &Options) -> FitOptions {
             within: o.swap_within.map_or(defaults.swap_screen.within, f64::from),
         },
         crossed_legs_within: o.crossed_legs.map_or(defaults.crossed_legs_within, f64::from),
+        facing_within: o.facing_within.map_or(defaults.facing_within, f64::from),
         crossed_legs_loose_within: o.crossed_legs_loose.map_or(defaults.crossed_legs_loose_within, f64::from),
         crossed_legs_excess: o.crossed_legs_excess.map_or(defaults.crossed_legs_excess, f64::from),
         fourth_run_below: o.fourth_run_below.map_or(defaults.fourth_run_below, f64::from),

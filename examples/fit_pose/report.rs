@@ -1,5 +1,5 @@
-//! What a single fit of the example prints after it ends: the swap test, the crossed legs and
-//! the restart and the polish.
+//! What a single fit of the example prints after it ends: the swap test, the crossed legs, the
+//! pass from the runner-up facing, the restart and the polish.
 
 use diffsil::pose::fit::{Fitted, RestartStart};
 
@@ -8,8 +8,8 @@ fn energy(e: Option<f64>) -> String {
     e.map_or("-".to_string(), |e| format!("{e:.3e}"))
 }
 
-/// Prints the swap test's candidates, the crossed legs' energies and runs, and the misfit check
-/// and restart and the polish of `fitted`, where they ran.
+/// Prints the swap test's candidates, the crossed legs' energies and runs, the pass from the
+/// runner-up facing, the misfit check and restart and the polish of `fitted`, where they ran.
 pub fn print_fitted(fitted: &Fitted) {
     if let Some(report) = &fitted.swap {
         let candidates: Vec<String> = report
@@ -36,6 +36,17 @@ pub fn print_fitted(fitted: &Fitted) {
             c.changed_excess,
             c.runs.iter().map(|r| format!("{:?} {}", r.start, energy(r.energy))).collect::<Vec<_>>().join(", "),
             c.end
+        );
+    }
+    if let Some(f) = &fitted.facing_run {
+        println!(
+            "runner-up facing {:.0}° ({:.3} times the chosen facing's energy after the first steps): its pass {}              steps, energy {:.3e} → {}, {}",
+            f.facing.to_degrees(),
+            f.ratio,
+            f.steps(),
+            f.first_energy,
+            energy(f.energy),
+            if f.kept { "kept" } else { "not kept" }
         );
     }
     if let Some(r) = &fitted.restart {

@@ -1,6 +1,6 @@
 //! The cameras of a fit of the example's own targets (`--views`, `--view-count`).
 
-use diffsil::pose::fit::{framing_orbit, framing_ring, RAISED_ELEVATION_DEG};
+use diffsil::pose::fit::{framing_orbit, ring_orbits, RAISED_ELEVATION_DEG};
 use diffsil::random::SplitMix64;
 use diffsil::{Camera, Mesh, Orbit};
 
@@ -18,10 +18,11 @@ pub enum Layout {
     Irregular,
 }
 
-/// The cameras of `layout` framing `rest` (the model's rest pose), `views` of them, square
-/// `resolution` (`seed` draws the irregular rig), and one line per camera of the irregular rig
-/// (azimuth, elevation, distance over the ring's; empty for the rings).
-pub fn cameras(layout: Layout, rest: &Mesh, views: u32, resolution: u32, seed: u64) -> (Vec<Camera>, String) {
+/// The cameras of `layout` framing `rest` (the model's rest pose), `views` of them, `size`
+/// (width, height) pixels, the body framed in the vertical field of view (`seed` draws the
+/// irregular rig), and one line per camera of the irregular rig (azimuth, elevation, distance
+/// over the ring's; empty for the rings).
+pub fn cameras(layout: Layout, rest: &Mesh, views: u32, size: (u32, u32), seed: u64) -> (Vec<Camera>, String) {
     let elevation = match layout {
         Layout::Level => 0.0,
         Layout::Raised => RAISED_ELEVATION_DEG.to_radians(),
@@ -40,10 +41,11 @@ pub fn cameras(layout: Layout, rest: &Mesh, views: u32, resolution: u32, seed: u
                     )
                 })
                 .collect();
-            return (rig.iter().map(|o| o.camera(resolution, resolution)).collect(), description);
+            return (rig.iter().map(|o| o.camera(size.0, size.1)).collect(), description);
         }
     };
-    (framing_ring(rest, views, resolution, elevation), String::new())
+    let ring = ring_orbits(framing_orbit(rest, elevation), views);
+    (ring.iter().map(|o| o.camera(size.0, size.1)).collect(), String::new())
 }
 
 /// The irregular rig of `seed` about the level framing orbit `level`.

@@ -2,21 +2,21 @@
 //! pose stood along the cameras' up and placed where the masks put the body
 //! (`diffsil::pose::fit::start_from_masks`), turned by `--facing DEG` or tried at four facings,
 //! at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
-//! downsampled together), with no ground truth, reported as each view's silhouette IoU and
-//! energy before and after at the masks' own resolution; and the writer of a fit's result
-//! (`--save`).
+//! downsampled together), reported as each view's silhouette IoU and energy before and after at
+//! the masks' own resolution and, where a ground truth is known (`--truth`, `--as-user-data`),
+//! the per-vertex error; and the writer of a fit's result (`--save`).
 
 use std::path::Path;
 
 use diffsil::pose::fit::{
-    cameras_up, per_vertex_error, start_from_masks, subject_height, turned_about_vertical, upright, world_up,
+    cameras_up, per_vertex_error, start_from_masks, subject_height, turned_about_vertical, upright, world_up, Fitted,
     MaskStart, PoseFit,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
-use super::{at_fit_height, fit_with_progress, renderer_for, sheet, user_data, Options};
+use super::{at_fit_height, fit_with_progress, renderer_for, report, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -52,23 +52,39 @@ pub struct DataOutcome {
     pub nuisances: (f32, f32),
     /// The fit's final energy E (unblurred, all terms, [`PoseFit::energy`]).
     pub energy: f64,
-    /// The per-vertex error against `--truth`, in the model's units; `None` without it.
+    /// The per-vertex error against the ground truth (`--truth`, or the example's own with
+    /// `--as-user-data`), in the model's units; `None` without one.
     pub error_m: Option<f64>,
-    /// Adam steps taken.
+    /// Adam steps taken, those after the first run (swap test, crossed legs, restart, polish)
+    /// included.
     pub steps: u32,
     /// Wall-clock seconds of the fit.
     pub seconds: f64,
 }
 
+/// Masks and cameras as the user gives them: the cameras, one mask per camera at its size, a
+/// name per view for the report, and the ground truth's vertices where one is known.
+pub struct UserData {
+    /// The cameras, calibrated.
+    pub cameras: Vec<Camera>,
+    /// One mask per camera, at its size.
+    pub targets: Vec<Image>,
+    /// A name per view (the mask's file) for the report.
+    pub names: Vec<String>,
+    /// The ground truth's posed vertices, when known.
+    pub truth: Option<Vec<Vec3>>,
+}
+
 /// The start of the fit ([`start_from_masks`], or with `--no-placement` the rest pose stood along
-/// the up where the model was built), printed, with a warning where the masks' subject looks
-/// more than twice as tall or as short as the model (cameras in other units than the model's).
+/// the up where the model was built), printed unless `quiet`, with a warning where the masks'
+/// subject looks more than twice as tall or as short as the model (cameras in other units than
+/// the model's).
 fn start(
     model: &SkinnedMesh,
     renderer: &mut Renderer,
-    cameras: &[Camera],
-    masks: &[Image],
+    (cameras, masks): (&[Camera], &[Image]),
     o: &Options,
+    quiet: bool,
 ) -> Result<MaskStart, Box<dyn std::error::Error>> {
     let up = match o.up {
         Up::Auto => None,
@@ -80,6 +96,9 @@ fn start(
     } else {
         start_from_masks(model, cameras, masks, renderer, up)?
     };
+    if quiet {
+        return Ok(start);
+    }
     if o.up == Up::Auto && start.up != Vec3::Y {
         let mean = cameras_up(cameras).unwrap_or(Vec3::Y);
         println!("up: the cameras' mean up is {mean:.3}; the model is stood along {:.3}", start.up);
@@ -103,31 +122,55 @@ fn start(
     Ok(start)
 }
 
-/// The per-vertex error of `fit` against the ground truth in the pose and shape JSON at `path`.
-fn truth_error(model: &SkinnedMesh, fit: &PoseFit, path: &Path) -> Result<f64, Box<dyn std::error::Error>> {
+/// The vertices of `model` in the ground truth's pose and shape, read from the JSON at `path`
+/// (`--truth`).
+fn truth_vertices(model: &SkinnedMesh, path: &Path) -> Result<Vec<Vec3>, Box<dyn std::error::Error>> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("--truth {}: {e}", path.display()))?;
     let (pose, shape) = Pose::from_json(&text).map_err(|e| format!("--truth {}: {e}", path.display()))?;
-    let truth = model.skin_shaped(&pose, &shape).map_err(|e| format!("--truth {}: {e}", path.display()))?;
-    Ok(per_vertex_error(&fit.vertices()?, &truth))
+    Ok(model.skin_shaped(&pose, &shape).map_err(|e| format!("--truth {}: {e}", path.display()))?)
 }
 
-/// Fits `model` to the user's `--targets` seen by `--cameras`; writes the pictures and, with
-/// `--save`, the fitted mesh and pose to `--out`.
+/// Fits `model` to the user's `--targets` seen by `--cameras` (with `--truth`, reporting the
+/// error against it); writes the pictures and, with `--save`, the fitted mesh and pose to
+/// `--out`.
 pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Box<dyn std::error::Error>> {
     let path = o.cameras.as_ref().ok_or("--targets needs --cameras")?;
     let cameras = user_data::load_cameras(path)?;
     let targets = user_data::load_targets(&o.targets, &cameras, o.threshold)?;
+    let truth = match &o.truth_file {
+        Some(path) => Some(truth_vertices(model, path)?),
+        None => None,
+    };
+    let names = o.targets.iter().map(|p| p.display().to_string()).collect();
+    Ok(fit_masks(model, o, UserData { cameras, targets, names, truth }, false)?.0)
+}
+
+/// Fits `model` to `data`'s masks from their cameras alone, printing the start, the choices and
+/// each view's agreement and writing the pictures (and with `--save` the fit) to `--out` unless
+/// `quiet`; returns what it measured and the library's fit.
+pub fn fit_masks(
+    model: &SkinnedMesh,
+    o: &Options,
+    data: UserData,
+    quiet: bool,
+) -> Result<(DataOutcome, Fitted), Box<dyn std::error::Error>> {
+    let UserData { cameras, targets, names, truth } = data;
     if o.shape && model.shape_count() == 0 {
         return Err("--shape needs a model with morph targets".into());
     }
+    let say = |line: String| {
+        if !quiet {
+            println!("{line}");
+        }
+    };
     let mut renderer = renderer_for(o)?;
     // The fit runs where the subject is about `--fit-height` pixels tall; the report and the
     // pictures are at the masks' own resolution.
     let (factor, fit_cameras, fit_targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
     let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
-    println!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)");
-    let start = start(model, &mut renderer, &cameras, &targets, o)?;
+    say(format!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)"));
+    let start = start(model, &mut renderer, (&cameras, &targets), o, quiet)?;
     let height_ratio = start.height_ratio;
     let start = start.pose;
     let start = match o.facing() {
@@ -138,18 +181,26 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = renderer_for(o)?;
     let o = &Options { initial: Some(start), ..o.clone() };
-    let (fitted, seconds) =
-        fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), false, |_, progress, _| {
+    let (mut fitted, seconds) =
+        fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), quiet, |_, progress, _| {
             Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))
         })?;
     let facing = fitted.facing.to_degrees();
     if o.facing() == Facing::Auto {
-        println!("facing: {facing:.0}° from the model's front fitted best after the starting poses' steps");
+        let how = match &fitted.facing_run {
+            Some(run) if run.kept => "ended lower than the facing that fitted best after the starting poses' steps",
+            Some(_) => "fitted best after the starting poses' steps and ended lower than the runner-up",
+            None => "fitted best after the starting poses' steps",
+        };
+        say(format!("facing: {facing:.0}° from the model's front {how}"));
     }
-    let (mut fit, run) = (fitted.fit, fitted.report);
+    if !quiet {
+        report::print_fitted(&fitted);
+    }
+    let fit = &mut fitted.fit;
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
-    println!("stopped: {:?} after {} steps", run.stop, run.steps);
-    println!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}");
+    say(format!("stopped: {:?} after {} steps", fitted.report.stop, fitted.report.steps));
+    say(format!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}"));
     let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
     let after = renderer.render(&posed, &cameras)?.images().to_vec();
     let mut outcome = DataOutcome {
@@ -161,22 +212,24 @@ pub fn fit_user_data(model: &SkinnedMesh, o: &Options) -> Result<DataOutcome, Bo
         facing,
         nuisances: (fitted_inflation, fitted_outline),
         energy: fit.energy()?,
-        error_m: match &o.truth_file {
-            Some(path) => Some(truth_error(model, &fit, path)?),
+        error_m: match &truth {
+            Some(truth) => Some(per_vertex_error(&fit.vertices()?, truth)),
             None => None,
         },
-        steps: run.steps,
+        steps: fitted.steps(),
         seconds,
     };
     for (view, target) in targets.iter().enumerate() {
         outcome.before.push(user_data::agreement(&before[view], target));
         outcome.after.push(user_data::agreement(&after[view], target));
         let ((iou0, e0), (iou1, e1)) = (outcome.before[view], outcome.after[view]);
-        println!("view {view} ({}): IoU {iou0:.3} -> {iou1:.3}, E_sl {e0:.2e} -> {e1:.2e}", o.targets[view].display());
+        say(format!("view {view} ({}): IoU {iou0:.3} -> {iou1:.3}, E_sl {e0:.2e} -> {e1:.2e}", names[view]));
     }
-    sheet::save_comparison_sheets(&o.out, &targets, &before, &after)?;
-    if o.save {
-        save_fit(model, &fit, &o.out)?;
+    if !quiet {
+        sheet::save_comparison_sheets(&o.out, &targets, &before, &after)?;
+        if o.save {
+            save_fit(model, &fitted.fit, &o.out)?;
+        }
     }
-    Ok(outcome)
+    Ok((outcome, fitted))
 }

@@ -288,17 +288,13 @@ fn the_world_up_is_read_from_the_cameras() {
     let (masks, cameras) = write_user_data_at(SIZE, Vec3::ZERO, 0.0);
     let model = builtin_figure();
     let truth = model.skin(&random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3)).unwrap();
-    // The fit's per-vertex error with the same masks seen in the world X' = Q X (R' = R Qᵀ, t
-    // kept), against the truth there.
+    // The fit's per-vertex error with the same masks seen in the world X' = Q X, against the
+    // truth there.
     let error = |q: glam::Mat3, extra: &[&str]| {
-        let mut specs: Vec<Value> = serde_json::from_str(&std::fs::read_to_string(&cameras).unwrap()).unwrap();
-        for spec in &mut specs {
-            let r: [[f32; 3]; 3] = serde_json::from_value(spec["R"].clone()).unwrap();
-            let r = glam::Mat3::from_cols_array_2d(&r).transpose() * q.transpose();
-            spec["R"] = json!(r.transpose().to_cols_array_2d());
-        }
+        let specs = user_data::load_cameras(&cameras).unwrap();
+        let specs: Vec<Camera> = specs.iter().map(|c| c.in_world(q, Vec3::ZERO)).collect();
         let turned = cameras.with_file_name(format!("turned{}.json", extra.len()));
-        std::fs::write(&turned, serde_json::to_string(&specs).unwrap()).unwrap();
+        std::fs::write(&turned, user_data::cameras_json(&specs).unwrap()).unwrap();
         let out = crate::common::files::temp_dir();
         // The facing given: the built-in figure at this size is not told front from back.
         let args =
@@ -380,6 +376,63 @@ fn exported_targets_fit_back_with_their_truth() {
     for bad in [["--world-up", "+w"], ["--world-offset", "1,2"]] {
         assert!(example::Options::try_parse_from([&["fit_pose", "--export", "d"][..], &bad[..]].concat()).is_err());
     }
+}
+
+/// `--as-user-data` fits the example's own targets as `--targets` fits the user's: from the
+/// masks and cameras alone. Hardened by `--threshold` (as `--export` then writes them: 0 and
+/// 255 only), seen from a non-square irregular rig in a world turned and moved
+/// (`--world-up`, `--world-offset`) where the model's rest pose is out of every view: placed
+/// and stood along the cameras' up it fits, from the rest position (`--no-placement`) it
+/// does not.
+#[test]
+fn as_user_data_fits_the_own_targets_from_the_masks_and_cameras_alone() {
+    let args = [
+        "fit_pose",
+        "--figure",
+        "--resolution",
+        "48x40",
+        "--views",
+        "irregular",
+        "--seed",
+        "5",
+        "--turn",
+        "30",
+        "--threshold",
+        "0.5",
+        "--world-up",
+        "+z",
+        "--world-offset",
+        "2,0.5,-1",
+    ];
+    let dir = crate::common::files::temp_dir();
+    example::run(
+        &example::Options::try_parse_from([&args[..], &["--export", dir.to_str().unwrap()]].concat()).unwrap(),
+    )
+    .unwrap();
+    for k in 0..4 {
+        let mask =
+            diffsil::io::load_png_target(dir.join(format!("mask{k}.png")), diffsil::io::TargetMode::Coverage).unwrap();
+        assert_eq!((mask.width(), mask.height()), (48, 40));
+        assert!(mask.data().iter().all(|v| *v == 0.0 || *v == 1.0), "mask {k} is not hard");
+        assert!(mask.data().iter().filter(|v| **v == 1.0).count() > 40, "mask {k} sees the figure");
+    }
+    let model = builtin_figure();
+    // The facing given: the built-in figure at this size and in 60 steps is not told front from
+    // back (`facing_turns_the_start_or_is_found` finds it at 120 steps).
+    let error = |extra: &[&str]| {
+        let all = [&args[..], &["--as-user-data", "--iterations", "60", "--facing", "0"], extra].concat();
+        example::fit_seed(&model, &example::Options::try_parse_from(all).unwrap(), false, true).unwrap().error_m
+    };
+    let (placed, unplaced) = (error(&[]), error(&["--no-placement"]));
+    assert!(placed < 0.03 && placed < 0.2 * unplaced, "per-vertex error {placed:.4} placed, {unplaced:.4} unplaced");
+    // What goes with it and what does not.
+    let parse =
+        |extra: &[&str]| example::Options::try_parse_from([&["fit_pose", "--as-user-data"][..], extra].concat());
+    assert!(parse(&["--world-up", "0,0.766,0.643"]).is_ok());
+    assert!(parse(&["--world-up", "0,0,0"]).unwrap_err().to_string().contains("other than 0,0,0"));
+    assert!(parse(&["--export", "d"]).is_err());
+    assert!(parse(&["--targets", "a.png", "--cameras", "c.json"]).is_err());
+    assert!(example::Options::try_parse_from(["fit_pose", "--no-placement"]).is_err(), "only with masks alone");
 }
 
 #[test]
@@ -483,13 +536,13 @@ fn the_rings_are_the_librarys_and_an_irregular_rig_is_drawn_from_the_seed_and_fr
     use diffsil::pose::fit::{framing_orbit, framing_ring, RAISED_ELEVATION_DEG};
     use rig::{cameras, Layout};
     let rest = builtin_figure().mesh;
-    assert_eq!(cameras(Layout::Level, &rest, 4, 32, 9), (framing_ring(&rest, 4, 32, 0.0), String::new()));
+    assert_eq!(cameras(Layout::Level, &rest, 4, (32, 32), 9), (framing_ring(&rest, 4, 32, 0.0), String::new()));
     let raised = framing_ring(&rest, 3, 32, RAISED_ELEVATION_DEG.to_radians());
-    assert_eq!(cameras(Layout::Raised, &rest, 3, 32, 9), (raised, String::new()));
-    let (rig, description) = cameras(Layout::Irregular, &rest, 5, 32, 9);
+    assert_eq!(cameras(Layout::Raised, &rest, 3, (32, 32), 9), (raised, String::new()));
+    let (rig, description) = cameras(Layout::Irregular, &rest, 5, (32, 32), 9);
     assert_eq!(rig.len(), 5);
-    assert_eq!(rig, cameras(Layout::Irregular, &rest, 5, 32, 9).0, "the same seed, the same rig");
-    assert_ne!(rig, cameras(Layout::Irregular, &rest, 5, 32, 10).0);
+    assert_eq!(rig, cameras(Layout::Irregular, &rest, 5, (32, 32), 9).0, "the same seed, the same rig");
+    assert_ne!(rig, cameras(Layout::Irregular, &rest, 5, (32, 32), 10).0);
     let lines: Vec<String> = description.lines().map(str::to_owned).collect();
     assert_eq!(lines.len(), 5, "{lines:?}");
     let ring = framing_orbit(&rest, 0.0);
@@ -510,6 +563,25 @@ fn the_rings_are_the_librarys_and_an_irregular_rig_is_drawn_from_the_seed_and_fr
             assert!(valid && screen.min_element() > 0.0 && screen.max_element() < 32.0, "camera {k}: {p} at {screen}");
         }
         assert!(line.starts_with(&format!("camera {k}: azimuth ")), "{line}");
+    }
+    // Another size (a camera's 3:2 and 2:3): the same rig, the image widened or narrowed about
+    // the same centre (the body framed in the vertical field of view), in every layout.
+    for layout in [Layout::Level, Layout::Raised, Layout::Irregular] {
+        let square = cameras(layout, &rest, 5, (32, 32), 9).0;
+        for (width, height) in [(48, 32), (32, 48)] {
+            let sized = cameras(layout, &rest, 5, (width, height), 9).0;
+            for (camera, square) in sized.iter().zip(&square) {
+                assert_eq!((camera.width, camera.height), (width, height));
+                assert_eq!((camera.eye, camera.target), (square.eye, square.target));
+                let scale = height as f32 / 32.0;
+                for &p in rest.positions().iter().step_by(7) {
+                    let (a, b) = (square.params().project(p).0, camera.params().project(p).0);
+                    let expected =
+                        (a - glam::Vec2::splat(16.0)) * scale + glam::Vec2::new(width as f32, height as f32) / 2.0;
+                    assert!((b - expected).length() < 1e-3, "{layout:?} {width}x{height}: {p} at {b}, not {expected}");
+                }
+            }
+        }
     }
 }
 
