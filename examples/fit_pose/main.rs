@@ -50,8 +50,8 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, upright, CrossedLegsEnd, Fitted,
-    LimbSwap, PoseFit, Progress, Stop,
+    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, upright, CrossedLegsEnd, FitOptions,
+    Fitted, LimbSwap, PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -188,6 +188,18 @@ fn own_targets(
     Ok(OwnTargets { truth, betas, truth_vertices, rest_mesh, cameras, targets, rig })
 }
 
+/// `o` for targets downsampled by `factor`: where `--inflation` and `--outline` are not given,
+/// the library's nuisances for such targets (`FitOptions::for_downsampled`: from a factor of 2
+/// the surface offset in place of the outline).
+pub fn downsampled_nuisances(o: &Options, factor: u32) -> Options {
+    let chosen = FitOptions::default().for_downsampled(factor);
+    Options {
+        inflation: o.inflation.or(Some(chosen.fit_inflation)),
+        outline: o.outline.or(Some(chosen.fit_outline)),
+        ..o.clone()
+    }
+}
+
 /// Moves `own`'s cameras and truth into the world of `--world-up` and `--world-offset`
 /// (`X' = Q X + offset`, the cameras seeing there what they saw), where given.
 fn in_given_world(model: &SkinnedMesh, mut own: OwnTargets, o: &Options) -> diffsil::Result<OwnTargets> {
@@ -243,6 +255,7 @@ pub fn fit_seed(
     if factor > 1 && !quiet {
         println!("fitting at {}x{} (the targets downsampled {factor}x)", cameras[0].width, cameras[0].height);
     }
+    let o = &downsampled_nuisances(o, factor);
     let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
 
     let (fitted, seconds) =

@@ -172,15 +172,16 @@ pub struct Options {
     #[arg(long)]
     pub shape: bool,
     /// Fit an inflation of the body along its normals beside the pose (FitOptions::fit_inflation):
-    /// on, off, or the library's default (off; `--inflation true --outline false` for masks a
-    /// pixel off at a resolution they are downsampled from: FitOptions::for_downsampled)
+    /// on, off, or the library's choice (on where the masks are downsampled for the fit, in
+    /// place of the outline: FitOptions::for_downsampled)
     #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
     pub inflation: Option<bool>,
     /// Step of the inflation per Adam step, fraction of the model's height
     #[arg(long, value_name = "X", default_value_t = FitOptions::INFLATION_RATE, value_parser = finite)]
     pub inflation_rate: f32,
     /// Fit an outline nuisance beside the pose (FitOptions::fit_outline): the renders grown or
-    /// shrunk by up to one pixel before they are compared; on, off, or the library's default
+    /// shrunk by up to one pixel before they are compared; on, off, or the library's choice (on
+    /// where the masks are fitted as they are)
     #[arg(long, value_name = "ON", value_parser = clap::value_parser!(bool))]
     pub outline: Option<bool>,
     /// Step of the outline nuisance per Adam step (it spans [−1, 1])

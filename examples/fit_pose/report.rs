@@ -40,7 +40,8 @@ pub fn print_fitted(fitted: &Fitted) {
     }
     if let Some(f) = &fitted.facing_run {
         println!(
-            "runner-up facing {:.0}° ({:.3} times the chosen facing's energy after the first steps): its pass {}              steps, energy {:.3e} → {}, {}",
+            "runner-up facing {:.0}° ({:.3} times the chosen facing's energy after the first steps): its pass {} \
+             steps, energy {:.3e} → {}, {}",
             f.facing.to_degrees(),
             f.ratio,
             f.steps(),

@@ -16,7 +16,7 @@ use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
-use super::{at_fit_height, fit_with_progress, renderer_for, report, sheet, user_data, Options};
+use super::{at_fit_height, downsampled_nuisances, fit_with_progress, renderer_for, report, sheet, user_data, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -47,8 +47,9 @@ pub struct DataOutcome {
     /// The facing the fit kept, in degrees from the model's front (`--facing auto`'s choice,
     /// else 0: a given `--facing` turns the start instead).
     pub facing: f32,
-    /// The fitted nuisances: the surface offset `d` (model units, `--inflation`) and the outline
-    /// `a` (`--outline`); 0 where not fitted.
+    /// The fitted nuisances: the surface offset `d` (model units) and the outline `a` (0 where
+    /// not fitted: `FitOptions::for_downsampled` fits `d` for masks downsampled for the fit, `a`
+    /// for masks fitted as they are, unless `--inflation` or `--outline` say otherwise).
     pub nuisances: (f32, f32),
     /// The fit's final energy E (unblurred, all terms, [`PoseFit::energy`]).
     pub energy: f64,
@@ -180,7 +181,7 @@ pub fn fit_masks(
     let start_mesh = Mesh::with_topology(model.skin(&start)?, model.mesh.topology().clone())?;
     let before = renderer.render(&start_mesh, &cameras)?.images().to_vec();
     let fit_renderer = renderer_for(o)?;
-    let o = &Options { initial: Some(start), ..o.clone() };
+    let o = &Options { initial: Some(start), ..downsampled_nuisances(o, factor) };
     let (mut fitted, seconds) =
         fit_with_progress(model, o, (fit_cameras, fit_targets, fit_renderer), quiet, |_, progress, _| {
             Some(format!("blur {:.3}  E_sl {:.2e}", progress.blur, progress.report.silhouette))

@@ -218,8 +218,8 @@
 //!     the trunk turned part of the way: where the second-lowest facing is within
 //!     [`FitOptions::facing_within`] of the lowest, the first pass runs from it as well and
 //!     the lower end is kept ([`FacingRun`]). On hard 640 × 480 masks of irregular rigs, the
-//!     body turned by 0°, 45°, …, 315° (seeds 1–6 each): one of 48 ended 71.6 mm off without
-//!     it, none with it.
+//!     body turned by 0°, 45°, …, 315° (seeds 1–6 each, the outline nuisance on): one of 48
+//!     ended 71.6 mm off without it, none with it.
 //!
 //! Costs: a blurred step costs about a third more than a sharp one (see
 //! [`PoseFit::set_blur`]), so the default 300 steps (130 blurred) take about 1.06 times as long

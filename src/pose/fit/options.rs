@@ -372,8 +372,8 @@ impl FitOptions {
 
     /// Default of [`FitOptions::facing_within`]: 1.25. The MakeHuman body in random poses,
     /// hard 640 × 480 masks of irregular four-camera rigs fitted from the masks and cameras
-    /// alone (the `fit_pose` example's `--as-user-data`), seeds 1–6, the body turned 0°, 45°,
-    /// …, 315°: with the four [`FitOptions::ANY_FACING`] alone one of the 48 ended 71.6 mm off
+    /// alone (the `fit_pose` example's `--as-user-data`, the outline nuisance on), seeds 1–6,
+    /// the body turned 0°, 45°, …, 315°: with the four [`FitOptions::ANY_FACING`] alone one of the 48 ended 71.6 mm off
     /// (turned 135°, seed 4: the phase's lowest energies at 90° and 180° within 0.2% of each
     /// other, 90° kept; from 180° the fit ends 3.9 mm off). With this bound the runner-up's
     /// pass ran in 11 of the 48 (steps per fit 582 → 637) and was kept in 5, and none failed
@@ -456,10 +456,14 @@ impl FitOptions {
     /// 7.2 / 8.0 / 8.6 with the outline, 4.0 / 4.4 / 4.5 with the inflation; dilated 5.0 / 6.9
     /// / 8.5 and 3.3 / 3.6 / 4.2; exact 2.8 / 3.7 / 4.2 and 3.0 / 3.6 / 4.1; 2% flipped 3.3 /
     /// 4.1 / 4.7 and 3.5 / 4.0 / 4.7. Both on did worse on the dilated masks (p90 13.6 mm).
-    /// Not the default: with [`FitOptions::facings`] tried, the surface offset in place of the
-    /// outline chose the wrong facing in 1 of 48 fits of the body turned 0°–315° in 640×480
-    /// masks (311 mm off; the outline 0 of 48), and left the worst of 18 fits in turned worlds
-    /// at 8.6 mm instead of 5.0. For masks known to be a pixel off, with the facing known.
+    /// Hard 640 × 480 masks fitted from the masks and cameras alone (the example's
+    /// `--as-user-data`, seeds 1–30): eroded 7.0 / 8.7 / 9.8 → 4.0 / 4.5 / 8.3, dilated 5.0 /
+    /// 6.8 / 8.8 → 3.1 / 4.0 / 5.9; the body turned 0°–315° (48 fits, the four facings tried)
+    /// 2.7 / 4.1 / 4.8 → 2.8 / 4.3 / 4.4, and in worlds whose up is ±z or 40° from +y all 18
+    /// within 4.4 mm. The `fit_pose` example's choice for downsampled masks; not
+    /// [`FitOptions::default`], which cannot know the factor. (Before the runner-up facing's
+    /// pass, [`FitOptions::facing_within`], the offset chose a wrong facing in 1 of 48 fits on
+    /// other 640 × 480 rigs, 311 mm off, and that was not looked at again.)
     pub fn for_downsampled(self, factor: u32) -> FitOptions {
         if factor < 2 {
             return self;
