@@ -5,7 +5,7 @@
 use std::ops::ControlFlow;
 
 use super::pass::{pass_cancelled, run_pass, Pass};
-use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Schedule, Stop, SwapReport};
+use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Schedule, SwapReport};
 use crate::pose::skin::Pose;
 use crate::Result;
 
@@ -65,7 +65,6 @@ pub(super) fn runner_up(energies: &[f64], facings: usize, within: f64) -> Option
 /// from [`runner_up`]), its steps reported after `offset`, and keeps the lower end: the fit is
 /// left at this pass's end where it ended below the first pass's (where the fit was on
 /// entry), else put back there.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn run_from_runner_up(
     fit: &mut PoseFit,
     options: &FitOptions,
@@ -83,8 +82,7 @@ pub(super) fn run_from_runner_up(
     let mut callback =
         |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
     let Pass { report, swap, crossed_legs } = run_pass(fit, options, schedule, starts, outline_rate, &mut callback)?;
-    let cancelled = pass_cancelled(&report, crossed_legs.as_ref());
-    let energy = if cancelled || report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    let energy = if pass_cancelled(&report, crossed_legs.as_ref()) { None } else { Some(fit.energy()?) };
     let kept = energy.is_some_and(|e| e < first_energy);
     if !kept {
         fit.set_state(first)?;
