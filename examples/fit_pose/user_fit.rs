@@ -56,8 +56,8 @@ pub struct DataOutcome {
     /// The per-vertex error against the ground truth (`--truth`, or the example's own with
     /// `--as-user-data`), in the model's units; `None` without one.
     pub error_m: Option<f64>,
-    /// Adam steps taken, those after the first run (swap test, crossed legs, restart, polish)
-    /// included.
+    /// Adam steps taken (`Fitted::steps`: the runs from the crossed legs, the runner-up facing's
+    /// pass, the restarts and the polish included).
     pub steps: u32,
     /// Wall-clock seconds of the fit.
     pub seconds: f64,
