@@ -89,7 +89,8 @@ pub struct FitOptions {
     /// fat or too thin do not twist the pose. The fitted pose and vertices exclude `d`. Default
     /// false: the outline nuisance ([`FitOptions::fit_outline`]) copes with eroded masks too;
     /// for masks a pixel off at a resolution they are downsampled from, see
-    /// [`FitOptions::for_downsampled`].
+    /// [`FitOptions::for_downsampled`] (which the `fit_pose` example uses wherever it
+    /// downsamples).
     pub fit_inflation: bool,
     /// Step size of `d` as a fraction of the model's rest height (its extent along y) per Adam
     /// step, > 0 ([`PoseFit::set_inflation_rate`]). Default [`FitOptions::INFLATION_RATE`].
