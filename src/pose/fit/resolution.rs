@@ -34,7 +34,9 @@ pub fn subject_height(mask: &Image) -> u32 {
 /// resolution (`--fit-height 0`) 4.0 / 6.8 / 12.3 mm in 26.6 s, the misfit restart running in
 /// every fit (a 480² fit always leaves some 2 × 2 blocks); downsampled 5–6× to 80² or 96² by
 /// [`FIT_SUBJECT_HEIGHT`] 2.6 / 3.7 / 4.8 mm in 1.8 s, 15 times faster; with a height of 96, 2.3
-/// / 3.8 / 6.3 mm in 2.1 s.
+/// / 3.8 / 6.3 mm in 2.1 s (with the outline nuisance; with the surface offset,
+/// [`FitOptions::for_downsampled`](super::FitOptions::for_downsampled), 2.5 / 3.6 / 4.2 and 2.4
+/// / 4.0 / 5.4 mm).
 ///
 /// ```
 /// use diffsil::pose::fit::{downsample_factor, FIT_SUBJECT_HEIGHT};
