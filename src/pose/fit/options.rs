@@ -368,8 +368,8 @@ impl FitOptions {
     /// built-in figure turned 180° at 32², 120 steps, was not told apart (the phase's lowest
     /// energy 0.0162 from its front, 0.0167 turned); at 64², 300 steps, it was (0.0161 turned,
     /// 0.0220 at the nearest other facing). (Those 640×480 masks came from a program outside
-    /// the repository. On the `fit_pose` example's own, `--as-user-data`, from the front alone
-    /// 25 of 48 failed, with these four 1 of 48 with the outline nuisance, which
+    /// the repository. On the `fit_pose` example's own, `--as-user-data`, with the outline
+    /// nuisance: from the front alone 24 of 48 failed, with these four 1 of 48, which
     /// [`FitOptions::facing_within`]'s pass mends.)
     pub const ANY_FACING: [f32; 4] =
         [0.0, std::f32::consts::FRAC_PI_2, std::f32::consts::PI, 3.0 * std::f32::consts::FRAC_PI_2];
