@@ -258,7 +258,7 @@ pub fn fit_seed(
     let o = &downsampled_nuisances(o, factor);
     let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
 
-    let (fitted, seconds) =
+    let (mut fitted, seconds) =
         fit_with_progress(model, o, (cameras, targets.clone(), renderer), quiet, |fit, progress, plan| {
             if quiet || (progress.step % 10 != 0 && progress.step != plan.total) {
                 return None;
@@ -276,7 +276,7 @@ pub fn fit_seed(
     if !quiet {
         report::print_fitted(&fitted);
     }
-    let (mut fit, run) = (fitted.fit, fitted.report);
+    let (fit, run) = (&mut fitted.fit, &fitted.report);
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {
@@ -290,10 +290,9 @@ pub fn fit_seed(
     if let Some(before) = before {
         sheet::save_comparison_sheets(&o.out, &targets, &before, &fit.render()?)?;
         if o.save {
-            save_fit(model, &fit, &o.out)?;
+            save_fit(model, fit, &o.out)?;
         }
     }
-    let fitted = Fitted { fit, report: run, ..fitted };
     Ok(Outcome::of(&fitted, error_m, largest_extent(&rest_mesh), seconds))
 }
 
