@@ -151,9 +151,10 @@ pub use render::{
     frame_bytes, Backend, BackwardStats, Frame, RenderSettings, RenderStats, Renderer, ScreenView, Step, Targets,
     MAX_FRAME_BYTES, MAX_PIXEL_VALUE,
 };
-pub use scene::camera::{Camera, Extrinsics, Orbit, Projection};
+pub use scene::camera::{Camera, Extrinsics, Projection};
 pub use scene::image::Image;
 pub use scene::mesh::{Mesh, Topology};
+pub use scene::orbit::Orbit;
 pub use scene::shapes;
 
 /// The README's Rust code, compiled and run by `cargo test` as doctests.

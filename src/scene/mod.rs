@@ -4,4 +4,5 @@
 pub mod camera;
 pub mod image;
 pub mod mesh;
+pub mod orbit;
 pub mod shapes;

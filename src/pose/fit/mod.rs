@@ -238,6 +238,7 @@ mod options;
 mod outline;
 mod pass;
 mod placement;
+mod plan;
 mod polish;
 mod poses;
 mod resolution;

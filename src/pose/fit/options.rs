@@ -1,14 +1,12 @@
-//! [`FitOptions`]: every setting of [`fit`](super::fit), its default (the recommended method), its checks
-//! ([`FitOptions::validate`]) and the schedule and starting poses it gives for a model
-//! ([`FitOptions::plan`]).
+//! [`FitOptions`]: every setting of [`fit`](super::fit), its default (the recommended method) and
+//! its checks ([`FitOptions::validate`]). The schedule and starting poses the options give for a
+//! model ([`FitOptions::plan`]) are in `plan.rs`.
 
 use super::descent::{check_blur, check_intersection_interval, check_prior_weight, check_rate_and_lambda};
 use super::restart::RestartFamily;
 use super::schedule::{check_outline_settle, check_prior_scale};
-use super::{
-    limb_swing_hypotheses, turned_about_vertical, Convergence, PoseFit, Schedule, Stage, SwapScreen, SwapTest,
-};
-use crate::pose::skin::{Pose, SkinnedMesh};
+use super::{Convergence, PoseFit, Schedule, SwapScreen, SwapTest};
+use crate::pose::skin::Pose;
 use crate::{Error, Result};
 
 /// What [`fit`](super::fit) does; `FitOptions::default()` is the recommended method (see the
@@ -31,14 +29,14 @@ pub struct FitOptions {
     /// [`PoseFit::POSE_PRIOR`].
     pub pose_prior: f32,
     /// The pose prior's weight in the blurred stages (the starting poses' included), as a
-    /// multiple of `pose_prior`, finite and ≥ 0 ([`Stage::prior_scale`]). Default
+    /// multiple of `pose_prior`, finite and ≥ 0 ([`Stage::prior_scale`](super::Stage::prior_scale)). Default
     /// [`Schedule::COARSE_PRIOR_SCALE`].
     pub coarse_prior_scale: f32,
     /// Leg stride of the extra starting poses, radians (0: none). Default 0.3
-    /// ([`limb_swing_hypotheses`]).
+    /// ([`limb_swing_hypotheses`](super::limb_swing_hypotheses)).
     pub leg_stride: f32,
     /// Arm swing of the extra starting poses, radians (0: none). Default 0
-    /// ([`limb_swing_hypotheses`]).
+    /// ([`limb_swing_hypotheses`](super::limb_swing_hypotheses)).
     pub arm_swing: f32,
     /// Blur of the coarsest stage, fraction of the image height; 0 fits without blur (and
     /// without hypotheses, which are compared on blurred silhouettes). Default
@@ -63,7 +61,7 @@ pub struct FitOptions {
     /// Default `None`.
     pub initial: Option<Pose>,
     /// Facings to try, in radians: the initial pose turned by each about its vertical (the
-    /// model's +y as its orientation holds it) through its centre ([`turned_about_vertical`]),
+    /// model's +y as its orientation holds it) through its centre ([`turned_about_vertical`](super::turned_about_vertical)),
     /// every starting pose with each, all in one hypothesis phase; the lowest energy after it
     /// decides the facing, which the rest of the fit (the later stages, the runs from the
     /// crossed legs, the restarts) keeps ([`Fitted::facing`](super::Fitted::facing)). For targets whose subject may face any way:
@@ -105,7 +103,7 @@ pub struct FitOptions {
     /// [`FitOptions::OUTLINE_RATE`].
     pub outline_rate: f32,
     /// When the blurred stages end with the outline `|a|` below this, the unblurred stage drops
-    /// it (`a` = 0, no longer fitted; [`Stage::outline_settle`]), finite and ≥ 0; 0 keeps it;
+    /// it (`a` = 0, no longer fitted; [`Stage::outline_settle`](super::Stage::outline_settle)), finite and ≥ 0; 0 keeps it;
     /// a fit without blur always keeps it. Default 0.
     ///
     /// Masks a pixel too fat or too thin take `a` to ±1 within the blurred stages, exact ones
@@ -116,11 +114,11 @@ pub struct FitOptions {
     /// MakeHuman fit of exact masks takes 0.8 times the time, and dilated and eroded masks fit
     /// as before; but the fits of exact masks end elsewhere within their spread, and on the
     /// built-in figure two of seeds 31–80 no longer recover from the jump of the first
-    /// unblurred step ([`Stage::warmup`]) and end 6 to 10 mm worse (p90 6.9 → 12.1 mm; the
+    /// unblurred step ([`Stage::warmup`](super::Stage::warmup)) and end 6 to 10 mm worse (p90 6.9 → 12.1 mm; the
     /// table is in `docs/pose-fit-evaluation.md`), so the default keeps the outline.
     pub outline_settle: f32,
     /// Steps over which the unblurred stage that follows the blurred ones ramps up the learning
-    /// rate ([`Stage::warmup`], which says why; 0: none; a fit without blur has no ramp).
+    /// rate ([`Stage::warmup`](super::Stage::warmup), which says why; 0: none; a fit without blur has no ramp).
     /// Default 0.
     ///
     /// With 10, and `outline_settle` 0.1, fits stop earlier (about 250 steps instead of 280)
@@ -236,7 +234,7 @@ pub struct FitOptions {
     /// and none across the 2% line; so it is off by default (the measurements are in
     /// `docs/pose-fit-evaluation.md`).
     pub head_turn_below: f64,
-    /// Arm swing (radians) of the starting poses of the restart ([`limb_swing_hypotheses`]),
+    /// Arm swing (radians) of the starting poses of the restart ([`limb_swing_hypotheses`](super::limb_swing_hypotheses)),
     /// finite and ≥ 0; 0: no restart. Where the fit's result (after the first run, its swap
     /// test and the runs from the crossed legs) still misses a piece of a target at least two
     /// pixels wide ([`misfit_blocks`](super::misfit_blocks) not all 0), [`fit`](super::fit) runs the whole
@@ -557,58 +555,5 @@ impl FitOptions {
             ));
         }
         Ok(())
-    }
-
-    /// The schedule and the starting poses [`fit`](super::fit) uses for `model`.
-    ///
-    /// With `fit_pose` and a blur, the starting poses are [`limb_swing_hypotheses`] applied on
-    /// top of the initial pose (its joint offsets added to each), and the schedule is
-    /// [`Schedule::coarse_to_fine`] with the blur scaled to `coarse_blur`, the blurred
-    /// stages' prior scale set to `coarse_prior_scale` and the unblurred stage's outline settle
-    /// and learning-rate ramp to `outline_settle` and `warmup`. Without blur: one unblurred
-    /// stage from the initial pose, which keeps the outline and has no ramp. Without
-    /// `fit_pose`, the initial pose alone. With [`FitOptions::facings`], all of that for the
-    /// initial pose turned by each facing ([`turned_about_vertical`]), facing by facing (the
-    /// starting poses of facing `k` are the `k`-th run of equal length), with the hypothesis
-    /// steps a single facing's starting poses would have.
-    pub fn plan(&self, model: &SkinnedMesh) -> Result<(Schedule, Vec<Pose>)> {
-        self.validate()?;
-        let initial = self.initial.clone().unwrap_or_else(|| Pose::rest(model.joint_count()));
-        initial.validate(model.joint_count())?;
-        if self.coarse_blur == 0.0 {
-            let stages = vec![Stage::new(0.0, self.steps)];
-            return Ok((Schedule { hypothesis_steps: 0, stages, convergence: self.convergence }, vec![initial]));
-        }
-        let swings =
-            if self.fit_pose { limb_swing_hypotheses(model, self.leg_stride, self.arm_swing)? } else { Vec::new() };
-        let per_facing = swings.len().max(1);
-        let facings: &[f32] = if self.facings.is_empty() { &[0.0] } else { &self.facings };
-        let mut hypotheses = Vec::with_capacity(facings.len() * per_facing);
-        for &facing in facings {
-            let turned = turned_about_vertical(model, &initial, facing)?;
-            if swings.is_empty() {
-                hypotheses.push(turned);
-                continue;
-            }
-            for h in &swings {
-                let joint_rotations =
-                    h.joint_rotations.iter().zip(&turned.joint_rotations).map(|(a, b)| *a + *b).collect();
-                hypotheses.push(Pose { joint_rotations, ..turned.clone() });
-            }
-        }
-        // Each facing's starting poses take the steps a fit from one facing would give them.
-        let mut schedule = Schedule::coarse_to_fine(self.steps, per_facing);
-        let scale = self.coarse_blur / Schedule::COARSE_BLUR;
-        for stage in &mut schedule.stages {
-            stage.blur *= scale;
-            if stage.blur > 0.0 {
-                stage.prior_scale = self.coarse_prior_scale;
-            } else {
-                stage.outline_settle = self.outline_settle;
-                stage.warmup = self.warmup;
-            }
-        }
-        schedule.convergence = self.convergence;
-        Ok((schedule, hypotheses))
     }
 }
