@@ -114,11 +114,7 @@ impl Outcome {
 
 /// The largest extent of `mesh`'s bounding box (a standing body's height).
 fn largest_extent(mesh: &Mesh) -> f64 {
-    let (lo, hi) = mesh
-        .positions()
-        .iter()
-        .fold((diffsil::Vec3::splat(f32::MAX), diffsil::Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-    f64::from((hi - lo).max_element())
+    mesh.bounds().map_or(0.0, |(lo, hi)| f64::from((hi - lo).max_element()))
 }
 
 /// The cameras and masks downsampled together by [`downsample_factor`] for `height` (the

@@ -53,18 +53,38 @@ impl Mesh {
         &self.topology
     }
 
+    /// The axis-aligned bounding box of the vertices: its lowest and highest corner, `None` for a
+    /// mesh without vertices ([`bounding_box`]).
+    ///
+    /// ```
+    /// use diffsil::{Mesh, Vec3};
+    ///
+    /// let corners = vec![Vec3::new(0.0, 2.0, -1.0), Vec3::new(1.0, 0.0, 3.0), Vec3::new(-2.0, 1.0, 0.0)];
+    /// let triangle = Mesh::new(corners, vec![[0, 1, 2]])?;
+    /// assert_eq!(triangle.bounds(), Some((Vec3::new(-2.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 3.0))));
+    /// # Ok::<(), diffsil::Error>(())
+    /// ```
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        bounding_box(&self.positions)
+    }
+
     /// The mesh scaled and translated so that its bounding-box centre is at the origin and its
     /// farthest vertex at distance `radius` (the benchmarks' normalisation). An empty or single-point
     /// mesh is returned centred but unscaled.
     pub fn normalized(&self, radius: f32) -> Mesh {
-        let Some(first) = self.positions.first() else { return self.clone() };
-        let (lo, hi) = self.positions.iter().fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let Some((lo, hi)) = self.bounds() else { return self.clone() };
         let centre = (lo + hi) * 0.5;
         let far = self.positions.iter().map(|p| (*p - centre).length()).fold(0.0f32, f32::max);
         let scale = if far > 0.0 { radius / far } else { 1.0 };
         let positions = self.positions.iter().map(|p| (*p - centre) * scale).collect();
         Mesh { positions, topology: self.topology.clone() }
     }
+}
+
+/// The axis-aligned bounding box of `points`: its lowest and highest corner, `None` for no points.
+pub fn bounding_box(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
+    let first = *points.first()?;
+    Some(points.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
 }
 
 /// Checks vertex positions for a mesh of `expected` vertices: as many as that

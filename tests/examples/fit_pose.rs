@@ -71,10 +71,7 @@ const SIZE: (u32, u32) = (40, 32);
 /// Three OpenCV cameras (`K`, `R` rows, `t`, as JSON) on a ring around `mesh`, looking at its
 /// centre, framing its height in about 3/4 of the image height, `size` pixels.
 fn opencv_cameras(mesh: &Mesh, size: (u32, u32)) -> Vec<Value> {
-    let (lo, hi) = mesh
-        .positions()
-        .iter()
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (lo, hi) = mesh.bounds().expect("a mesh with vertices");
     let (width, height) = size;
     let (centre, extent) = ((lo + hi) / 2.0, (hi - lo).max_element());
     let distance = 3.0 * extent;

@@ -45,9 +45,7 @@ pub fn framing_ring(mesh: &Mesh, views: u32, resolution: u32, elevation: f32) ->
 /// mesh in view.
 pub fn framing_orbit(mesh: &Mesh, elevation: f32) -> Orbit {
     let p = mesh.positions();
-    let (lo, hi) =
-        p.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-    let centre = if p.is_empty() { Vec3::ZERO } else { (lo + hi) * 0.5 };
+    let centre = mesh.bounds().map_or(Vec3::ZERO, |(lo, hi)| (lo + hi) * 0.5);
     let radius = p.iter().map(|v| (*v - centre).length()).fold(1e-3f32, f32::max);
     let fov_y = 40f32.to_radians();
     let distance = 1.1 * radius / (0.5 * fov_y).sin();

@@ -5,6 +5,7 @@ use glam::{Mat3, Quat, Vec3};
 
 use crate::pose::skin::{Pose, SkinnedMesh};
 use crate::random::SplitMix64;
+use crate::scene::mesh::bounding_box;
 use crate::Result;
 
 /// A random plausible pose: each joint rotated about a random axis by an angle uniform in
@@ -39,10 +40,7 @@ pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Re
     if angle == 0.0 {
         return Ok(pose.clone());
     }
-    let centre = |pose: &Pose| -> Result<Vec3> {
-        let (lo, hi) = bounds(&model.skin(pose)?);
-        Ok((lo + hi) * 0.5)
-    };
+    let centre = |pose: &Pose| -> Result<Vec3> { Ok(box_centre(&model.skin(pose)?)) };
     let orientation = Quat::from_scaled_axis(pose.orientation);
     let turn = Quat::from_axis_angle((orientation * Vec3::Y).normalize(), angle) * orientation;
     let mut turned = Pose { orientation: turn.to_scaled_axis(), ..pose.clone() };
@@ -50,10 +48,9 @@ pub fn turned_about_vertical(model: &SkinnedMesh, pose: &Pose, angle: f32) -> Re
     Ok(turned)
 }
 
-/// The bounding box of `points` (lowest and highest corner); `f32::MAX` and `f32::MIN` corners
-/// for none.
-pub(super) fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
-    points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+/// The centre of the bounding box of `points` (the origin for none).
+pub(super) fn box_centre(points: &[Vec3]) -> Vec3 {
+    bounding_box(points).map_or(Vec3::ZERO, |(lo, hi)| (lo + hi) * 0.5)
 }
 
 /// Mean distance between corresponding vertices (paper Eq. 21), in the mesh's units.

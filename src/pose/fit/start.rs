@@ -9,9 +9,9 @@
 
 use glam::{Quat, Vec4};
 
-use super::poses::bounds;
 use super::{subject_height, triangulate_masks};
 use crate::pose::skin::{Pose, SkinnedMesh};
+use crate::scene::mesh::bounding_box;
 use crate::{Camera, Error, Image, Mesh, Renderer, Result, Vec3};
 
 /// The mean of the cameras' up directions (each camera's image "up", its y axis, in world
@@ -100,7 +100,7 @@ pub fn start_from_masks(
     let Some(point) = triangulate_masks(cameras, masks)? else {
         return Ok(MaskStart { pose: rest, up, point: None, height_ratio: None });
     };
-    let (lo, hi) = bounds(&model.skin(&rest)?);
+    let (lo, hi) = bounding_box(&model.skin(&rest)?).unwrap_or_default();
     let mut pose = Pose { translation: rest.translation + (point - (lo + hi) * 0.5), ..rest };
     let there = Mesh::with_topology(model.skin(&pose)?, model.mesh.topology().clone())?;
     if let Some(seen) = triangulate_masks(cameras, renderer.render(&there, cameras)?.images())? {

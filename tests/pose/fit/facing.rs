@@ -8,6 +8,7 @@ use std::f32::consts::PI;
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{fit, per_vertex_error, random_pose, turned_about_vertical, FitOptions};
 use diffsil::pose::skin::Pose;
+use diffsil::scene::mesh::bounding_box;
 use diffsil::{Error, Vec3};
 use glam::Quat;
 
@@ -15,8 +16,7 @@ use super::call::{go_on, renderer};
 
 /// The centre of the bounding box of `points` (also used by `start.rs`).
 pub(super) fn centre(points: &[Vec3]) -> Vec3 {
-    let (lo, hi) =
-        points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let (lo, hi) = bounding_box(points).expect("points");
     (lo + hi) * 0.5
 }
 

@@ -30,10 +30,7 @@ fn a_sphere_seen_by_orthographic_cameras_is_placed_at_its_centre() {
 #[test]
 fn the_figure_far_from_the_origin_is_placed_where_it_stands() {
     let figure = builtin_figure().mesh;
-    let (lo, hi) = figure
-        .positions()
-        .iter()
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
+    let (lo, hi) = figure.bounds().expect("a mesh with vertices");
     let height = (hi - lo).max_element();
     for offset in [Vec3::ZERO, Vec3::new(2.0, 0.3, -1.5) * height, Vec3::new(-6.0, 0.0, 4.0) * height] {
         let there = moved(&figure, offset);
