@@ -102,9 +102,9 @@ impl Outcome {
             seconds,
             backend: fitted.fit.renderer().backend_name(),
             steps: fitted.steps(),
-            stop: fitted.report.stop,
-            swap: fitted.swap.as_ref().and_then(|s| s.kept),
-            crossed: fitted.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end)),
+            stop: fitted.first.report.stop,
+            swap: fitted.first.swap.as_ref().and_then(|s| s.kept),
+            crossed: fitted.first.crossed_legs.as_ref().map(|c| (!c.runs.is_empty(), c.end)),
             restart: restart.map(|r| r.kept.is_some()),
             thinned: fitted.restart.as_ref().is_some_and(|r| r.thinned),
             facing_run: fitted.facing_run.as_ref().map(|f| f.kept),
@@ -272,7 +272,7 @@ pub fn fit_seed(
     if !quiet {
         report::print_fitted(&fitted);
     }
-    let (fit, run) = (&mut fitted.fit, &fitted.report);
+    let (fit, run) = (&mut fitted.fit, &fitted.first.report);
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
     if !quiet {
         if run.hypothesis_energies.len() > 1 {

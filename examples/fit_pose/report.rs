@@ -11,7 +11,7 @@ fn energy(e: Option<f64>) -> String {
 /// Prints the swap test's candidates, the crossed legs' energies and runs, the pass from the
 /// runner-up facing, the misfit check and restart and the polish of `fitted`, where they ran.
 pub fn print_fitted(fitted: &Fitted) {
-    if let Some(report) = &fitted.swap {
+    if let Some(report) = &fitted.first.swap {
         let candidates: Vec<String> = report
             .candidates
             .iter()
@@ -25,7 +25,7 @@ pub fn print_fitted(fitted: &Fitted) {
             candidates.join(", ")
         );
     }
-    if let Some(c) = &fitted.crossed_legs {
+    if let Some(c) = &fitted.first.crossed_legs {
         println!(
             "crossed legs: fitted {:.3e}, crossed pose {:.3e}, refined {} ({:.2} times the error where they differ, \
              {:.3} more per pixel there), runs from it → {}; the fit ends at {:?}",
@@ -44,7 +44,7 @@ pub fn print_fitted(fitted: &Fitted) {
              steps, energy {:.3e} → {}, {}",
             f.facing.to_degrees(),
             f.ratio,
-            f.steps(),
+            f.pass.steps(),
             f.first_energy,
             energy(f.energy),
             if f.kept { "kept" } else { "not kept" }
@@ -67,7 +67,7 @@ pub fn print_fitted(fitted: &Fitted) {
             };
             println!(
                 "{check}: restart from {from}, {} steps, energy {:.3e} → {}, {}",
-                run.steps(),
+                run.pass.steps(),
                 r.first_energy,
                 energy(run.energy),
                 if r.kept == Some(k) { "kept" } else { "not kept" }

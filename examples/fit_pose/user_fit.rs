@@ -200,7 +200,7 @@ pub fn fit_masks(
     }
     let fit = &mut fitted.fit;
     let (fitted_inflation, fitted_outline) = (fit.inflation(), fit.outline());
-    say(format!("stopped: {:?} after {} steps", fitted.report.stop, fitted.report.steps));
+    say(format!("stopped: {:?} after {} steps", fitted.first.report.stop, fitted.first.report.steps));
     say(format!("nuisances: inflation d = {fitted_inflation:.4} (model units), outline a = {fitted_outline:.3}"));
     let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
     let after = renderer.render(&posed, &cameras)?.images().to_vec();

@@ -4,8 +4,8 @@
 
 use std::ops::ControlFlow;
 
-use super::pass::{pass_cancelled, run_pass, Pass};
-use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Schedule, SwapReport};
+use super::pass::run_pass;
+use super::{FitOptions, PassReport, PoseFit, Progress, Schedule};
 use crate::pose::skin::Pose;
 use crate::Result;
 
@@ -18,29 +18,14 @@ pub struct FacingRun {
     pub ratio: f64,
     /// The energy ([`PoseFit::energy`]) where the first pass ended.
     pub first_energy: f64,
-    /// The pass's run, its hypothesis phase over the runner-up facing's starting poses.
-    pub report: RunReport,
-    /// Its swap test; `None` when it did not run.
-    pub swap: Option<SwapReport>,
-    /// Its crossed legs and the runs from them; `None` when not looked at.
-    pub crossed_legs: Option<CrossedLegsReport>,
+    /// The pass: its run (the hypothesis phase over the runner-up facing's starting poses), swap
+    /// test and crossed legs.
+    pub pass: PassReport,
     /// The energy where the pass ended; `None` when it was cancelled.
     pub energy: Option<f64>,
     /// Whether the fit goes on from this pass's end (it ended below the first pass's) rather
     /// than from the first pass's.
     pub kept: bool,
-}
-
-impl FacingRun {
-    /// Adam steps of the pass, the runs from its crossed legs included.
-    pub fn steps(&self) -> u32 {
-        self.report.steps + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
-    }
-
-    /// Whether the pass was cancelled (the fit then ran no restart and no polish).
-    pub fn cancelled(&self) -> bool {
-        pass_cancelled(&self.report, self.crossed_legs.as_ref())
-    }
 }
 
 /// The facing (index into `facings` of them, `energies` one per starting pose, facing after
@@ -81,14 +66,14 @@ pub(super) fn run_from_runner_up(
     }
     let mut callback =
         |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
-    let Pass { report, swap, crossed_legs } = run_pass(fit, options, schedule, starts, outline_rate, &mut callback)?;
-    let energy = if pass_cancelled(&report, crossed_legs.as_ref()) { None } else { Some(fit.energy()?) };
+    let pass = run_pass(fit, options, schedule, starts, outline_rate, &mut callback)?;
+    let energy = if pass.cancelled() { None } else { Some(fit.energy()?) };
     let kept = energy.is_some_and(|e| e < first_energy);
     if !kept {
         fit.set_state(first)?;
         fit.set_outline_rate(first_outline_rate)?;
     }
-    Ok(FacingRun { facing, ratio, first_energy, report, swap, crossed_legs, energy, kept })
+    Ok(FacingRun { facing, ratio, first_energy, pass, energy, kept })
 }
 
 #[cfg(test)]

@@ -3,10 +3,10 @@
 use std::ops::ControlFlow;
 
 use super::facing_run::{run_from_runner_up, runner_up, FacingRun};
-use super::pass::{run_pass, Pass};
+use super::pass::run_pass;
 use super::polish::PolishReport;
 use super::restart::{restarts_after_first_pass, RestartReport};
-use super::{CrossedLegsReport, FitOptions, FitSettings, Free, PoseFit, Progress, RunReport, SwapReport};
+use super::{FitOptions, FitSettings, Free, PassReport, PoseFit, Progress};
 use crate::pose::skin::SkinnedMesh;
 use crate::{Camera, Image, Renderer, Result};
 
@@ -19,16 +19,10 @@ pub struct Fitted {
     /// poses ended the hypothesis phase lowest, or the runner-up where the pass from it ended
     /// lower ([`Fitted::facing_run`]); 0 without facings.
     pub facing: f32,
-    /// Steps, hypotheses' energies, the final energy and why it stopped (of the first run's
-    /// descent, before its swap test).
-    pub report: RunReport,
-    /// The limb swap test after the first run's descent ([`FitOptions::swap_steps`]); `None`
-    /// when it did not run.
-    pub swap: Option<SwapReport>,
-    /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the runs from
-    /// them, and where the fit ends; `None` when the crossed pose was not
-    /// looked at (switched off, a skeleton without a pair of legs, a cancelled first run).
-    pub crossed_legs: Option<CrossedLegsReport>,
+    /// The first pass: its run from the starting poses of every facing (steps, the hypotheses'
+    /// energies, the energy where its descent ended and why it stopped), its limb swap test and
+    /// its crossed legs.
+    pub first: PassReport,
     /// The misfit and thinned-target checks after the crossed legs and the restarts where they
     /// ran ([`FitOptions::restart_arm_swing`], [`FitOptions::thinned_restarts`],
     /// [`FitOptions::thinned_final_run`]); `None` when not looked at (all three switched off, a
@@ -47,9 +41,8 @@ impl Fitted {
     /// the pass from the runner-up facing, the restarts' and the polish's (the swap test's and the crossed pose's short refinements
     /// are not counted).
     pub fn steps(&self) -> u32 {
-        self.report.steps
-            + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
-            + self.facing_run.as_ref().map_or(0, FacingRun::steps)
+        self.first.steps()
+            + self.facing_run.as_ref().map_or(0, |f| f.pass.steps())
             + self.restart.as_ref().map_or(0, |r| r.steps())
             + self.polish.as_ref().map_or(0, |p| p.steps)
     }
@@ -102,7 +95,7 @@ impl Fitted {
 /// let targets = renderer.render(&model.mesh, &cameras)?.images().to_vec();
 /// let options = FitOptions { steps: 12, ..FitOptions::default() };
 /// let fitted = fit(model, cameras, targets, renderer, &options, |_, _| ControlFlow::Continue(()))?;
-/// assert!(fitted.report.steps <= 12);
+/// assert!(fitted.first.report.steps <= 12);
 /// # Ok::<(), diffsil::Error>(())
 /// ```
 pub fn fit(
@@ -168,9 +161,9 @@ pub fn fit(
         _ => None,
     };
     let facing = options.facings.get(chosen).copied().unwrap_or(0.0);
-    let before_restarts = first.steps() + facing_run.as_ref().map_or(0, FacingRun::steps);
+    let before_restarts = first.steps() + facing_run.as_ref().map_or(0, |f| f.pass.steps());
     let restarts = options.restart_arm_swing > 0.0 || !options.thinned_restarts.is_empty() || options.thinned_final_run;
-    let cancelled = first.cancelled() || facing_run.as_ref().is_some_and(FacingRun::cancelled);
+    let cancelled = first.cancelled() || facing_run.as_ref().is_some_and(|f| f.pass.cancelled());
     let restart = if options.fit_pose && restarts && !cancelled {
         let (faced, starts) = (faced(chosen), starts_of(chosen));
         Some(restarts_after_first_pass(&mut fit, &faced, starts, before_restarts, outline_rate, &mut on_step)?)
@@ -187,6 +180,5 @@ pub fn fit(
     } else {
         None
     };
-    let Pass { report, swap, crossed_legs } = first;
-    Ok(Fitted { fit, facing, report, swap, crossed_legs, facing_run, restart, polish })
+    Ok(Fitted { fit, facing, first, facing_run, restart, polish })
 }

@@ -256,6 +256,7 @@ pub use facing_run::FacingRun;
 pub use inflation::vertex_normals;
 pub use method::{fit, Fitted};
 pub use options::FitOptions;
+pub use pass::PassReport;
 pub use placement::triangulate_masks;
 pub use polish::{PolishReport, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses, turned_about_vertical};

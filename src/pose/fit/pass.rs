@@ -8,34 +8,36 @@ use super::{CrossedLegsReport, FitOptions, PoseFit, Progress, RunReport, Schedul
 use crate::pose::skin::Pose;
 use crate::Result;
 
-/// What one pass did: the run, its swap test and the runs from its crossed legs.
-pub(super) struct Pass {
-    /// The run's report.
-    pub(super) report: RunReport,
-    /// Its swap test; `None` when it did not run.
-    pub(super) swap: Option<SwapReport>,
-    /// Its crossed legs and the runs from them; `None` when not looked at.
-    pub(super) crossed_legs: Option<CrossedLegsReport>,
+/// What one pass of the method did ([`Fitted::first`](super::Fitted::first), each
+/// [`FacingRun`](super::FacingRun) and [`RestartRun`](super::RestartRun)): the run, its swap
+/// test and the runs from its crossed legs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassReport {
+    /// The run's report: steps, the hypotheses' energies, the energy where its descent ended
+    /// (before the swap test) and why it stopped. Its steps follow the earlier passes' in the
+    /// callback's [`Progress`].
+    pub report: RunReport,
+    /// The limb swap test after the run ([`FitOptions::swap_steps`]); `None` when it did not run.
+    pub swap: Option<SwapReport>,
+    /// The crossed legs ([`FitOptions::crossed_legs_within`]): their refinement, the runs from
+    /// them, and where the pass ends; `None` when the crossed pose was not looked at (switched
+    /// off, a skeleton without a pair of legs, a cancelled run).
+    pub crossed_legs: Option<CrossedLegsReport>,
 }
 
-impl Pass {
-    /// Whether the run, or one of the runs from its crossed legs, was cancelled
-    /// ([`pass_cancelled`]).
-    pub(super) fn cancelled(&self) -> bool {
-        pass_cancelled(&self.report, self.crossed_legs.as_ref())
+impl PassReport {
+    /// Whether the run, or one of the runs from its crossed legs, was cancelled (the fit then
+    /// ran no later pass and no polish).
+    pub fn cancelled(&self) -> bool {
+        self.report.stop == Stop::Cancelled
+            || self.crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled))
     }
 
-    /// Adam steps of the pass, the runs from its crossed legs included.
-    pub(super) fn steps(&self) -> u32 {
+    /// Adam steps of the pass, the runs from its crossed legs included (the swap test's and the
+    /// crossed pose's short refinements are not counted).
+    pub fn steps(&self) -> u32 {
         self.report.steps + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
     }
-}
-
-/// Whether a pass (the first, or a restart's) with this run's `report` and these
-/// `crossed_legs` was cancelled: the run, or one of the runs from its crossed legs.
-pub(super) fn pass_cancelled(report: &RunReport, crossed_legs: Option<&CrossedLegsReport>) -> bool {
-    report.stop == Stop::Cancelled
-        || crossed_legs.is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled))
 }
 
 /// One pass from `starts` (the outline's rate at the start `outline_rate`): the run and its
@@ -48,14 +50,14 @@ pub(super) fn run_pass(
     starts: &[Pose],
     outline_rate: f32,
     on_step: &mut impl FnMut(&PoseFit, &Progress) -> ControlFlow<()>,
-) -> Result<Pass> {
+) -> Result<PassReport> {
     let (report, swap) = run_and_swap(fit, options, schedule, starts, &mut *on_step)?;
     let crossed_legs = if options.fit_pose && options.crossed_legs_within > 0.0 && report.stop != Stop::Cancelled {
         runs_from_crossed_legs(fit, options, schedule, report.steps, outline_rate, on_step)?
     } else {
         None
     };
-    Ok(Pass { report, swap, crossed_legs })
+    Ok(PassReport { report, swap, crossed_legs })
 }
 
 /// One run of `schedule` from `starts`, then the swap test ([`FitOptions::swap_steps`]) unless

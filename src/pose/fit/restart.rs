@@ -7,8 +7,8 @@
 
 use std::ops::ControlFlow;
 
-use super::pass::{pass_cancelled, run_pass, Pass};
-use super::{CrossedLegsReport, FitOptions, FitState, PoseFit, Progress, RunReport, Schedule, Stop, SwapReport};
+use super::pass::run_pass;
+use super::{FitOptions, FitState, PassReport, PoseFit, Progress, Schedule, Stop};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
 
@@ -130,39 +130,22 @@ pub struct RestartReport {
 pub struct RestartRun {
     /// Where it started.
     pub start: RestartStart,
-    /// The run's report; its steps follow the first pass's (and the earlier restarts') in the
-    /// callback's [`Progress`].
-    pub report: RunReport,
-    /// Its swap test; `None` when it did not run.
-    pub swap: Option<SwapReport>,
-    /// Its crossed legs and the runs from them; `None` when not looked at.
-    pub crossed_legs: Option<CrossedLegsReport>,
-    /// The energy where it ended; `None` when it was cancelled.
+    /// The pass: its run (its steps follow the first pass's and the earlier restarts' in the
+    /// callback's [`Progress`]), swap test and crossed legs.
+    pub pass: PassReport,
+    /// The energy where it ended; `None` when its run was cancelled.
     pub energy: Option<f64>,
-}
-
-impl RestartRun {
-    /// Adam steps of the restart, the runs from its crossed legs included.
-    pub fn steps(&self) -> u32 {
-        self.report.steps + self.crossed_legs.as_ref().map_or(0, |c| c.steps())
-    }
-
-    /// Whether the restart's run, or one of the runs from its crossed legs, was cancelled
-    /// (the fit then ran no later restart, and no polish).
-    pub fn cancelled(&self) -> bool {
-        pass_cancelled(&self.report, self.crossed_legs.as_ref())
-    }
 }
 
 impl RestartReport {
     /// Adam steps of all the restarts.
     pub fn steps(&self) -> u32 {
-        self.runs.iter().map(RestartRun::steps).sum()
+        self.runs.iter().map(|r| r.pass.steps()).sum()
     }
 
-    /// Whether one of the restarts was cancelled ([`RestartRun::cancelled`]).
+    /// Whether one of the restarts was cancelled ([`PassReport::cancelled`](super::PassReport::cancelled)).
     pub fn cancelled(&self) -> bool {
-        self.runs.iter().any(RestartRun::cancelled)
+        self.runs.iter().any(|r| r.pass.cancelled())
     }
 }
 
@@ -219,8 +202,8 @@ pub(super) fn restarts_after_first_pass(
         tried.push((starts.clone(), with_proxy));
         let plan = RestartPlan { start: RestartStart::Family(family), schedule, starts, with_proxy, shape: None };
         let run = restart_run(fit, &restarted, plan, outline_rate, steps, on_step)?;
-        steps += run.steps();
-        cancelled = run.cancelled();
+        steps += run.pass.steps();
+        cancelled = run.pass.cancelled();
         record(&mut outcome, &mut lowest, fit, run);
         if cancelled {
             break;
@@ -305,9 +288,9 @@ fn restart_run(
     if let Some(proxy) = taken {
         fit.put_coarse_proxy(proxy);
     }
-    let Pass { report, swap, crossed_legs } = pass?;
-    let energy = if report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
-    Ok(RestartRun { start: plan.start, report, swap, crossed_legs, energy })
+    let pass = pass?;
+    let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    Ok(RestartRun { start: plan.start, pass, energy })
 }
 
 /// Appends `run` (just ended: the fit is at its end) to `outcome`, and where it ends below the

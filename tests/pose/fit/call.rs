@@ -47,12 +47,12 @@ fn the_library_call_beats_its_start() {
     .unwrap();
     // The runs from the crossed legs, the restart and the polish, when there are any, number
     // their steps on.
-    let more = fitted.crossed_legs.as_ref().map_or(0, |c| c.steps())
+    let more = fitted.first.crossed_legs.as_ref().map_or(0, |c| c.steps())
         + fitted.restart.as_ref().map_or(0, |r| r.steps())
         + fitted.polish.as_ref().map_or(0, |p| p.steps);
-    assert_eq!(fitted.report.steps + more, steps, "one progress call per step");
-    assert!(fitted.report.steps <= 80);
-    assert_eq!(fitted.report.hypothesis_energies.len(), 3, "rest and a stride each way");
+    assert_eq!(fitted.first.report.steps + more, steps, "one progress call per step");
+    assert!(fitted.first.report.steps <= 80);
+    assert_eq!(fitted.first.report.hypothesis_energies.len(), 3, "rest and a stride each way");
     let error = per_vertex_error(&fitted.fit.vertices().unwrap(), &truth_vertices);
     assert!(error < 0.5 * start_error, "per-vertex error {start_error} → {error} m");
 }
@@ -70,12 +70,12 @@ fn the_fit_stops_early_once_the_energy_stops_falling() {
     let before_last: u32 = hypotheses.len() as u32 * schedule.hypothesis_steps
         + schedule.stages[..schedule.stages.len() - 1].iter().map(|s| s.steps).sum::<u32>();
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
-    assert_eq!(fitted.report.stop, Stop::Converged);
-    assert_eq!(fitted.report.steps, before_last + 12);
+    assert_eq!(fitted.first.report.stop, Stop::Converged);
+    assert_eq!(fitted.first.report.steps, before_last + 12);
     // Without the rule every step runs.
     let options = FitOptions { convergence: None, ..options };
     let fitted = fit(model, cameras, targets, renderer(), &options, go_on).unwrap();
-    assert_eq!((fitted.report.stop, fitted.report.steps), (Stop::Finished, 100));
+    assert_eq!((fitted.first.report.stop, fitted.first.report.steps), (Stop::Finished, 100));
 }
 
 #[test]
@@ -108,9 +108,9 @@ fn a_cancelled_fit_ends_at_once_where_it_is() {
         }
     })
     .unwrap();
-    assert_eq!((fitted.report.stop, fitted.report.steps), (Stop::Cancelled, 7));
+    assert_eq!((fitted.first.report.stop, fitted.first.report.steps), (Stop::Cancelled, 7));
     assert_eq!(fitted.fit.blur(), 0.0);
-    assert!(fitted.report.energy.is_finite());
+    assert!(fitted.first.report.energy.is_finite());
 }
 
 #[test]
@@ -131,7 +131,7 @@ fn switched_off_parts_keep_their_values() {
     assert_eq!(pose.joint_rotations, initial.joint_rotations, "joint offsets frozen");
     assert_ne!(pose.orientation, initial.orientation);
     assert_ne!(pose.translation, initial.translation);
-    assert_eq!(fitted.report.hypothesis_energies.len(), 1, "no limb hypotheses without the pose");
+    assert_eq!(fitted.first.report.hypothesis_energies.len(), 1, "no limb hypotheses without the pose");
 
     let joints_only = FitOptions { fit_global: false, ..base };
     let fitted = fit(model, cameras, targets, renderer(), &joints_only, go_on).unwrap();

@@ -126,14 +126,14 @@ fn a_fit_with_the_legs_in_each_others_places_ends_with_them_in_their_own() {
         ControlFlow::Continue(())
     })
     .unwrap();
-    let crossed = fitted.crossed_legs.as_ref().expect("looked at");
+    let crossed = fitted.first.crossed_legs.as_ref().expect("looked at");
     let starts: Vec<CrossedRunStart> = crossed.runs.iter().map(|r| r.start).collect();
     // The second and third runs end below the first run, so no fourth runs.
     assert_eq!(starts, [CrossedRunStart::AboutCrossed, CrossedRunStart::CrossedAlone], "{crossed:?}");
     let [second, third] = [0, 1].map(|k| &crossed.runs[k].report);
     assert!(second.hypothesis_energies.len() > 1, "{second:?}");
     assert_eq!(third.hypothesis_energies.len(), 1, "the third run starts from the crossed pose alone");
-    assert_eq!(blurs.len() as u32, fitted.report.steps + second.steps + third.steps);
+    assert_eq!(blurs.len() as u32, fitted.first.report.steps + second.steps + third.steps);
     assert_eq!(crossed.steps(), second.steps + third.steps);
     assert!(crossed.changed_ratio <= FitOptions::CROSSED_LEGS_WITHIN, "{crossed:?}");
     assert_eq!(crossed.end, lowest(crossed), "{crossed:?}");
@@ -157,7 +157,7 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     // A bound no energy exceeds: the second run always runs.
     let options = FitOptions { crossed_legs_within: 1e300, ..base.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
-    let crossed = fitted.crossed_legs.clone().expect("looked at");
+    let crossed = fitted.first.crossed_legs.clone().expect("looked at");
     assert_eq!(crossed.runs.len(), 3, "{crossed:?}");
     assert!(crossed.runs.iter().all(|r| r.report.stop != Stop::Cancelled && r.swap.is_some()), "{crossed:?}");
     assert_eq!(crossed.end, lowest(&crossed), "{crossed:?}");
@@ -168,7 +168,7 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     let lowest_energy = if fourth <= FitOptions::FOURTH_RUN_BELOW * others { fourth } else { others };
     assert_eq!(Some(kept.energy().unwrap()), end_energy(&crossed, crossed.end), "{crossed:?}");
     assert_eq!(kept.energy().unwrap(), lowest_energy, "{crossed:?}");
-    let first_steps = fitted.report.steps;
+    let first_steps = fitted.first.report.steps;
     let run_steps = |k: usize| crossed.runs[k].report.steps;
     // Cancelled three steps into the third or the fourth run: at the lowest of the others, the
     // end of an earlier run restored where that is it.
@@ -181,7 +181,7 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
             }
         })
         .unwrap();
-        let cancelled = fitted.crossed_legs.clone().expect("looked at");
+        let cancelled = fitted.first.crossed_legs.clone().expect("looked at");
         assert_eq!(cancelled.runs.len(), k + 1, "the cancelled run is the last: {cancelled:?}");
         let run = &cancelled.runs[k];
         assert_eq!((run.report.stop, run.report.steps, run.energy), (Stop::Cancelled, 4, None));
@@ -195,10 +195,10 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     // Off, or no pose fitted: not looked at.
     let off = FitOptions { crossed_legs_within: 0.0, ..base.clone() };
     let first_only = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &off, go_on).unwrap();
-    assert!(first_only.crossed_legs.is_none());
+    assert!(first_only.first.crossed_legs.is_none());
     let no_pose = FitOptions { fit_pose: false, ..base.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &no_pose, go_on).unwrap();
-    assert!(fitted.crossed_legs.is_none());
+    assert!(fitted.first.crossed_legs.is_none());
     // The first run alone ends where the fit with a second run does when that is not kept.
     let mut first_only = first_only.fit;
     assert_eq!(first_only.energy().unwrap(), crossed.fitted_energy);
@@ -209,20 +209,20 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
     // crossed pose alone, and it has no coarsest stage to leave out, so no third or fourth runs.
     let unblurred = FitOptions { coarse_blur: 0.0, ..options.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unblurred, go_on).unwrap();
-    let report = fitted.crossed_legs.expect("looked at");
+    let report = fitted.first.crossed_legs.expect("looked at");
     assert_eq!(report.runs.len(), 1, "{report:?}");
     assert_eq!(report.runs[0].start, CrossedRunStart::AboutCrossed);
     assert_eq!(report.runs[0].report.hypothesis_energies.len(), 1, "{report:?}");
     // No swap steps: nothing refined.
     let unrefined = FitOptions { swap_steps: 0, ..options.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &unrefined, go_on).unwrap();
-    let report = fitted.crossed_legs.expect("looked at");
+    let report = fitted.first.crossed_legs.expect("looked at");
     assert_eq!(report.refined_energy, None);
     assert_ne!(report.end, CrossedLegsEnd::Refined);
     // The fourth run's bound at 0: no fourth run, the others as before.
     let three = FitOptions { fourth_run_below: 0.0, ..options.clone() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &three, go_on).unwrap();
-    let report = fitted.crossed_legs.expect("looked at");
+    let report = fitted.first.crossed_legs.expect("looked at");
     assert_eq!(report.runs[..], crossed.runs[..2], "{report:?}");
     // Cancelled three steps into the second run: back where the first ended, or at the refined
     // crossed legs where they ended lower.
@@ -234,7 +234,7 @@ fn the_fit_ends_at_the_lower_run_and_can_leave_the_second_out() {
         }
     })
     .unwrap();
-    let crossed = fitted.crossed_legs.expect("looked at");
+    let crossed = fitted.first.crossed_legs.expect("looked at");
     assert_eq!(crossed.runs.len(), 1, "no run after a cancelled one: {crossed:?}");
     let second = &crossed.runs[0];
     assert_eq!((second.report.stop, second.report.steps, second.energy), (Stop::Cancelled, 4, None));
@@ -271,7 +271,7 @@ fn a_looser_ratio_runs_the_second_run_when_the_excess_per_changed_pixel_is_small
         FitOptions { steps: 30, swap_steps: 0, crossed_legs_within: 1e-9, polish_steps: 0, ..FitOptions::default() };
     let run = |options: &FitOptions| {
         let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), options, go_on).unwrap();
-        fitted.crossed_legs.expect("looked at")
+        fitted.first.crossed_legs.expect("looked at")
     };
     let looked = run(&FitOptions { crossed_legs_excess: 0.0, ..strict.clone() });
     assert!(looked.runs.is_empty(), "{looked:?}");
@@ -331,7 +331,7 @@ fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
         FitOptions { steps: 8, initial: Some(wrong), swap_steps: 5, polish_steps: 0, ..FitOptions::default() };
     let first_only = FitOptions { crossed_legs_within: 0.0, ..options.clone() };
     let alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &first_only, go_on).unwrap();
-    let first_steps = alone.report.steps;
+    let first_steps = alone.first.report.steps;
     let mut calls = 0;
     let fitted = fit(model, cameras, targets, renderer(), &options, |_, p| {
         calls += 1;
@@ -342,7 +342,7 @@ fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
         }
     })
     .unwrap();
-    let crossed = fitted.crossed_legs.as_ref().expect("looked at");
+    let crossed = fitted.first.crossed_legs.as_ref().expect("looked at");
     let second = &crossed.runs[0].report;
     assert_eq!((crossed.runs.len(), second.stop, second.steps), (1, Stop::Cancelled, 1), "{crossed:?}");
     assert_eq!(calls, first_steps + 1, "the refinement's steps are not the callback's");
@@ -358,7 +358,7 @@ fn the_crossed_legs_refined_a_few_steps_are_kept_where_they_end_lowest() {
     let far = FitOptions { crossed_legs_within: 1e-9, crossed_legs_excess: 0.0, ..options };
     let (cameras, targets) = views(&builtin_figure(), &truth, 32);
     let fitted = fit(builtin_figure(), cameras, targets, renderer(), &far, go_on).unwrap();
-    let crossed = fitted.crossed_legs.expect("looked at");
+    let crossed = fitted.first.crossed_legs.expect("looked at");
     assert_eq!((crossed.refined_energy, crossed.end), (None, CrossedLegsEnd::FirstRun), "{crossed:?}");
 }
 
@@ -372,7 +372,7 @@ fn the_third_run_from_the_crossed_legs_alone_is_kept_where_it_ends_lowest() {
     let options =
         FitOptions { steps: 60, initial: Some(wrong), swap_steps: 2, polish_steps: 0, ..FitOptions::default() };
     let fitted = fit(model, cameras, targets, renderer(), &options, go_on).unwrap();
-    let crossed = fitted.crossed_legs.as_ref().expect("looked at");
+    let crossed = fitted.first.crossed_legs.as_ref().expect("looked at");
     let [second, third] = [0, 1].map(|k| crossed.runs[k].energy.expect("ran"));
     assert!(third < second && third < crossed.fitted_energy, "{crossed:?}");
     assert_eq!(crossed.runs.len(), 2, "a run ended below the first: no fourth run");
@@ -398,10 +398,10 @@ fn the_fourth_run_mends_a_fit_whose_other_runs_end_above_the_first() {
             ControlFlow::Continue(())
         })
         .unwrap();
-        let crossed = fitted.crossed_legs.expect("looked at");
+        let crossed = fitted.first.crossed_legs.expect("looked at");
         let mut ended = fitted.fit;
         let error = per_vertex_error(&ended.vertices().unwrap(), &truth_vertices);
-        (crossed, ended.energy().unwrap(), error, blurs, fitted.report.steps)
+        (crossed, ended.energy().unwrap(), error, blurs, fitted.first.report.steps)
     };
     let (crossed, energy, error, blurs, first_steps) = run(&FitOptions { polish_steps: 0, ..FitOptions::default() });
     let starts: Vec<CrossedRunStart> = crossed.runs.iter().map(|r| r.start).collect();

@@ -129,7 +129,7 @@ fn a_fit_of_cesium_man_with_the_head_turned_the_wrong_way_turns_it_back() {
     let options = FitOptions { head_turn_below: 0.85, ..FitOptions::default() };
     for (options, turned_back) in [(FitOptions::default(), false), (options, true)] {
         let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
-        let swap = fitted.swap.expect("the swap test ran");
+        let swap = fitted.first.swap.expect("the swap test ran");
         assert_eq!(matches!(swap.kept, Some(LimbSwap::HeadTurn(_))), turned_back, "{swap:?}");
         let error = per_vertex_error(&fitted.fit.vertices().unwrap(), &truth_vertices);
         if turned_back {

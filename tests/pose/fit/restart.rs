@@ -13,7 +13,7 @@ use std::ops::ControlFlow;
 use diffsil::pose::figure::{builtin_figure, random_pose_limits};
 use diffsil::pose::fit::{
     fit, framing_cameras, misfit_blocks, random_pose, CrossedLegsEnd, CrossedLegsReport, CrossedRun, CrossedRunStart,
-    FitOptions, PoseFit, RestartFamily, RestartReport, RestartRun, RestartStart, RunReport, Schedule, Stop,
+    FitOptions, PassReport, PoseFit, RestartFamily, RestartReport, RestartRun, RestartStart, RunReport, Schedule, Stop,
 };
 use diffsil::pose::skin::{MorphTargets, SkinnedMesh};
 use diffsil::{Camera, Error, Image, RenderSettings, Renderer};
@@ -103,7 +103,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     assert_eq!(restart.runs.len(), 1, "the arms swung alone: {restart:?}");
     let run = &restart.runs[0];
     assert_eq!(run.start, RestartStart::Family(RestartFamily::swing(0.3, FitOptions::RESTART_ARM_SWING)));
-    assert_eq!(fitted.report.steps + run.steps(), last_step);
+    assert_eq!(fitted.first.report.steps + run.pass.steps(), last_step);
     let end = run.energy.expect("not cancelled");
     assert_eq!(restart.kept, (end < restart.first_energy).then_some(0));
     assert_eq!(energy(&mut fitted.fit), end.min(restart.first_energy), "at the lower end");
@@ -111,7 +111,7 @@ fn a_fit_that_misses_a_piece_restarts_from_the_arms_swung_and_ends_at_the_lower_
     let swung = FitOptions { arm_swing: FitOptions::RESTART_ARM_SWING, restart_arm_swing: 0.0, ..short() };
     let mut alone = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &swung, go_on).unwrap();
     assert_eq!(energy(&mut alone.fit), end);
-    assert_eq!(alone.report.steps, run.report.steps);
+    assert_eq!(alone.first.report.steps, run.pass.report.steps);
     // Without it, the first pass is the fit, and the same as with it up to there.
     let off = FitOptions { restart_arm_swing: 0.0, thinned_restarts: Vec::new(), thinned_final_run: false, ..short() };
     let mut first = fit(model, cameras, targets, renderer(), &off, go_on).unwrap();
@@ -156,7 +156,7 @@ fn a_cancelled_restart_leaves_the_first_pass_and_a_bad_swing_is_an_error_before_
     let restart = fitted.restart.clone().expect("looked at");
     assert_eq!(restart.runs.len(), 1, "it ran until cancelled");
     let run = &restart.runs[0];
-    assert_eq!(run.report.stop, Stop::Cancelled);
+    assert_eq!(run.pass.report.stop, Stop::Cancelled);
     assert_eq!((run.energy, restart.kept), (None, None));
     assert_eq!(energy(&mut fitted.fit), restart.first_energy, "back at the first pass's end");
     // With the polish on, a fit cancelled in its restart is not polished after.
@@ -198,7 +198,7 @@ fn no_restart_where_its_starting_poses_would_be_the_first_runs() {
         let restart = fitted.restart.expect("looked at");
         assert!(restart.misfit_blocks.iter().any(|&b| b > 0), "a misfit: {restart:?}");
         assert!(restart.runs.is_empty() && restart.kept.is_none(), "{restart:?}");
-        assert_eq!(steps, fitted.report.steps, "no step after the first run");
+        assert_eq!(steps, fitted.first.report.steps, "no step after the first run");
     }
 }
 
@@ -250,7 +250,7 @@ fn thinned_targets_restart_from_each_family_and_the_fit_ends_at_the_lowest() {
     expected.push(RestartStart::LowestEnd);
     assert_eq!(starts, expected, "every family in order, then the run from the lowest end");
     let families = FitOptions::THINNED_RESTARTS;
-    assert_eq!(fitted.report.steps + restart.steps(), last_step);
+    assert_eq!(fitted.first.report.steps + restart.steps(), last_step);
     let energies: Vec<f64> = restart.runs.iter().map(|r| r.energy.expect("not cancelled")).collect();
     let lowest = energies.iter().copied().fold(restart.first_energy, f64::min);
     assert_eq!(energy(&mut fitted.fit), lowest, "at the lowest end: {energies:?}, first {}", restart.first_energy);
@@ -356,7 +356,7 @@ fn the_last_thinned_run_starts_alone_from_the_lowest_end_without_the_coarsest_st
     // the lowest end is not the first pass's.
     let options = FitOptions { steps: 45, thinned_restarts: vec![RestartFamily::swing(0.3, 0.7)], ..thinned_options() };
     let fitted = fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, go_on).unwrap();
-    let first_steps = fitted.report.steps;
+    let first_steps = fitted.first.report.steps;
     let with = fitted.restart.expect("looked at");
     let last = with.runs.last().expect("restarts ran");
     assert_eq!(last.start, RestartStart::LowestEnd);
@@ -377,7 +377,7 @@ fn the_last_thinned_run_starts_alone_from_the_lowest_end_without_the_coarsest_st
     without.fit.set_outline_rate(options.outline_rate).unwrap();
     let report = without.fit.run(&later, &[from], go_on).unwrap();
     without.fit.swap_limbs(&options.swap_test()).unwrap();
-    assert_eq!(report.steps, last.report.steps);
+    assert_eq!(report.steps, last.pass.report.steps);
     assert_eq!(Some(energy(&mut without.fit)), last.energy);
     // Kept only where it ends below every other end.
     let lowest_before = families.runs.iter().filter_map(|r| r.energy).fold(families.first_energy, f64::min);
@@ -395,7 +395,7 @@ fn the_last_thinned_run_starts_alone_from_the_lowest_end_without_the_coarsest_st
     .unwrap();
     let cancelled = cancelled.restart.expect("looked at");
     assert_eq!(cancelled.runs.len(), 1, "{cancelled:?}");
-    assert_eq!((cancelled.runs[0].report.stop, cancelled.kept), (Stop::Cancelled, None));
+    assert_eq!((cancelled.runs[0].pass.report.stop, cancelled.kept), (Stop::Cancelled, None));
 }
 
 #[test]
@@ -440,7 +440,7 @@ fn the_last_thinned_run_of_a_shape_fit_starts_from_the_lowest_ends_shape() {
     assert!(moved > 0.1, "the lowest end's shape must be away from the initial one here: {lowest:?}");
     // The last run's first step is one Adam step (at most the learning rate per coefficient)
     // from the lowest end's shape, not from the initial shape.
-    let first = fitted.report.steps + before.iter().map(|r| r.steps()).sum::<u32>();
+    let first = fitted.first.report.steps + before.iter().map(|r| r.pass.steps()).sum::<u32>();
     let shape = &shapes[first as usize];
     let off_by = shape.iter().zip(&lowest).fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
     assert!(
@@ -463,9 +463,7 @@ fn a_restart_counts_as_cancelled_where_a_run_from_its_crossed_legs_was() {
     };
     let restart = |stop, crossed_legs| RestartRun {
         start: RestartStart::Family(RestartFamily::swing(0.3, 0.4)),
-        report: report(stop),
-        swap: None,
-        crossed_legs,
+        pass: PassReport { report: report(stop), swap: None, crossed_legs },
         energy: Some(1.0),
     };
     let cases = [
@@ -476,7 +474,7 @@ fn a_restart_counts_as_cancelled_where_a_run_from_its_crossed_legs_was() {
         (restart(Stop::Finished, Some(crossed(Stop::Cancelled))), true),
     ];
     for (run, cancelled) in cases {
-        assert_eq!(run.cancelled(), cancelled, "{run:?}");
+        assert_eq!(run.pass.cancelled(), cancelled, "{run:?}");
         let first = restart(Stop::Finished, None);
         let report = RestartReport {
             misfit_blocks: vec![0],

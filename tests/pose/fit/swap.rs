@@ -260,7 +260,7 @@ fn the_library_call_runs_the_swap_test_when_asked() {
         std::ops::ControlFlow::Continue(())
     })
     .unwrap();
-    let swap = with.swap.expect("the swap test ran");
+    let swap = with.first.swap.expect("the swap test ran");
     // Six, a forward and a back swing for each arm left near the body's plane, and three turns
     // of each forearm.
     let swings = swap.candidates.iter().filter(|c| matches!(c.kind, LimbSwap::Swing(..))).count();
@@ -270,7 +270,7 @@ fn the_library_call_runs_the_swap_test_when_asked() {
     let options = FitOptions { swap_steps: 0, ..options };
     let without =
         fit(model, cameras, targets, renderer(), &options, |_, _| std::ops::ControlFlow::Continue(())).unwrap();
-    assert!(without.swap.is_none());
+    assert!(without.first.swap.is_none());
 }
 
 /// The joints that `limb_swaps`'s candidates at `pose` name, where `joint` picks one from a
