@@ -427,6 +427,15 @@ fn as_user_data_fits_the_own_targets_from_the_masks_and_cameras_alone() {
     };
     let (placed, unplaced) = (error(&[]), error(&["--no-placement"]));
     assert!(placed < 0.03 && placed < 0.2 * unplaced, "per-vertex error {placed:.4} placed, {unplaced:.4} unplaced");
+    // The same fit as the exported files give `--targets` (hard masks and f32 cameras survive
+    // PNG and JSON unchanged): the same error, to the bit.
+    let masks: Vec<PathBuf> = (0..4).map(|k| dir.join(format!("mask{k}.png"))).collect();
+    let truth = dir.join("truth.json");
+    let out = crate::common::files::temp_dir();
+    let extra = ["--threshold", "0.5", "--iterations", "60", "--facing", "0", "--truth", truth.to_str().unwrap()];
+    let o = user_options(&masks, &dir.join("cameras.json"), &[&extra[..], &["--out", out.to_str().unwrap()]].concat());
+    let from_files = example::fit_user_data(&model, &o).unwrap().error_m;
+    assert_eq!(from_files, Some(placed), "--as-user-data and the exported files fit alike");
     // What goes with it and what does not.
     let parse =
         |extra: &[&str]| example::Options::try_parse_from([&["fit_pose", "--as-user-data"][..], extra].concat());
