@@ -10,5 +10,6 @@ mod common;
 
 mod fit_object_pose;
 mod fit_pose;
+mod fit_pose_user_data;
 mod gradient_maps;
 mod render;
