@@ -72,7 +72,8 @@ impl Fitted {
 /// follow the first run's in the callback's [`Progress`], and cancelling one ends the fit at the
 /// lowest of the others. Then, unless a run was cancelled, the polish
 /// ([`FitOptions::polish_steps`]): a few unblurred steps at a falling learning rate, kept where
-/// they end lower.
+/// they end lower. With [`FitOptions::steps`] 0 none of it takes a step: the fit ends at the
+/// starting pose of lowest energy.
 ///
 /// The method was tuned on targets where the body is 50–70 pixels tall; masks at a camera's
 /// own resolution are best downsampled to that first, with their cameras:
@@ -108,6 +109,25 @@ pub fn fit(
 ) -> Result<Fitted> {
     // `plan` checks the options first (`FitOptions::validate`).
     let (schedule, hypotheses) = options.plan(&model)?;
+    // Without steps there is no run to refine: the fit ends at the starting pose of lowest
+    // energy, and nothing that follows a run (swap test, crossed legs, runner-up facing,
+    // restarts, polish) takes a step.
+    let without_steps;
+    let options = if options.steps > 0 {
+        options
+    } else {
+        without_steps = FitOptions {
+            swap_steps: 0,
+            crossed_legs_within: 0.0,
+            facing_within: 0.0,
+            restart_arm_swing: 0.0,
+            thinned_restarts: Vec::new(),
+            thinned_final_run: false,
+            polish_steps: 0,
+            ..options.clone()
+        };
+        &without_steps
+    };
     let (low, high) = model
         .mesh
         .positions()

@@ -15,7 +15,9 @@ use crate::{Error, Result};
 pub struct FitOptions {
     /// Adam steps in all, every starting pose included, when the fit does not converge earlier
     /// (each facing of [`FitOptions::facings`] after the first adds its starting poses' steps;
-    /// the runs after the first, [`fit`](super::fit), add theirs). Default 300.
+    /// the runs after the first, [`fit`](super::fit), add theirs). Default 300. With 0 the fit
+    /// takes no step at all: it ends at the starting pose of lowest energy, and the swap test,
+    /// the crossed legs, the runner-up facing's pass, the restarts and the polish do not run.
     pub steps: u32,
     /// Adam's learning rate, > 0. Default 0.02.
     pub learning_rate: f32,

@@ -78,6 +78,32 @@ fn the_fit_stops_early_once_the_energy_stops_falling() {
     assert_eq!((fitted.first.report.stop, fitted.first.report.steps), (Stop::Finished, 100));
 }
 
+/// `steps: 0` takes no step: not in the run, nor in anything that follows one (the swap test,
+/// the crossed legs, the runner-up facing, the restarts, the polish); the fit ends at the
+/// starting pose of lowest energy.
+#[test]
+fn no_steps_take_no_step_and_end_at_the_lowest_starting_pose() {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 30f32.to_radians(), 5);
+    let (model, cameras, targets) = views_of(&truth, 16);
+    let options = FitOptions { steps: 0, facings: FitOptions::ANY_FACING.to_vec(), ..FitOptions::default() };
+    let (_, starts) = options.plan(&model).unwrap();
+    let mut calls = 0;
+    let fitted = fit(model, cameras, targets, renderer(), &options, |_, _| {
+        calls += 1;
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!((calls, fitted.steps()), (0, 0));
+    let energies = &fitted.first.report.hypothesis_energies;
+    assert_eq!(energies.len(), starts.len());
+    let lowest = (0..energies.len()).min_by(|a, b| energies[*a].total_cmp(&energies[*b])).unwrap();
+    assert_eq!(fitted.first.report.chosen, lowest);
+    assert_eq!(fitted.fit.pose(), starts[lowest]);
+    assert!(fitted.first.swap.is_none() && fitted.first.crossed_legs.is_none());
+    assert!(fitted.facing_run.is_none() && fitted.restart.is_none() && fitted.polish.is_none());
+}
+
 #[test]
 fn the_convergence_rule_compares_window_means() {
     let rule = Convergence { window: 2, tolerance: 0.1 };
