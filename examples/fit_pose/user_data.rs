@@ -137,7 +137,8 @@ pub fn cameras_json(cameras: &[Camera]) -> Result<String, String> {
 }
 
 /// The masks at `paths`, one per camera and of its size; `threshold` hardens them (see
-/// `TargetMode`), otherwise a pixel's value in [0, 1] is its coverage.
+/// `TargetMode`), otherwise a pixel's value in [0, 1] is its coverage. Masks that are all empty
+/// (no subject in any view) are refused: a fit would only move the body out of sight.
 pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32>) -> Result<Vec<Image>, String> {
     if paths.len() != cameras.len() {
         return Err(format!(
@@ -165,7 +166,17 @@ pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32
             }
             Ok(image)
         })
-        .collect()
+        .collect::<Result<Vec<_>, String>>()
+        .and_then(|masks| {
+            if masks.iter().all(|m| m.data().iter().all(|v| *v == 0.0)) {
+                let below = threshold.map_or(String::new(), |t| format!(" once hardened at --threshold {t}"));
+                return Err(format!(
+                    "every mask is empty{below}: no view shows the subject, so there is nothing to fit (the \
+                     subject must be the bright pixels)"
+                ));
+            }
+            Ok(masks)
+        })
 }
 
 /// How a rendered silhouette agrees with its target: the IoU of the two masks thresholded at

@@ -435,6 +435,16 @@ fn bad_user_data_are_clear_errors() {
         assert!(e.contains("bad.json: camera 2:") && e.contains(says), "{key}: {e}");
     }
 
+    // Masks with no subject in any view (black, or nothing left at the threshold).
+    let black: Vec<PathBuf> = (0..3).map(|k| cameras.with_file_name(format!("black{k}.png"))).collect();
+    for path in &black {
+        diffsil::io::save_png(&diffsil::Image::filled(SIZE.0, SIZE.1, 0.0), path).unwrap();
+    }
+    let e = error(&user_options(&black, &cameras, &[]));
+    assert!(e.contains("every mask is empty: no view shows the subject"), "{e}");
+    let e = error(&user_options(&masks, &cameras, &["--threshold", "1"]));
+    assert!(e.contains("every mask is empty once hardened at --threshold 1"), "{e}");
+
     // Zero distortion coefficients are no distortion.
     let mut undistorted = specs.clone();
     undistorted[1]["width"] = json!(SIZE.0);
