@@ -128,12 +128,7 @@ pub fn fit(
         };
         &without_steps
     };
-    let (low, high) = model
-        .mesh
-        .positions()
-        .iter()
-        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| (lo.min(v.y), hi.max(v.y)));
-    let height = if high > low { high - low } else { 1.0 };
+    let height = model.mesh.bounds().map(|(lo, hi)| hi.y - lo.y).filter(|h| *h > 0.0).unwrap_or(1.0);
     let settings = FitSettings {
         initial: hypotheses.first().cloned(),
         learning_rate: options.learning_rate,

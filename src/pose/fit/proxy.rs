@@ -228,12 +228,8 @@ mod tests {
     use crate::pose::figure::builtin_figure;
 
     fn height(model: &SkinnedMesh) -> f32 {
-        let (lo, hi) = model
-            .mesh
-            .positions()
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.y), h.max(p.y)));
-        hi - lo
+        let (lo, hi) = model.mesh.bounds().expect("a mesh with vertices");
+        hi.y - lo.y
     }
 
     #[test]
