@@ -20,6 +20,8 @@ use crate::engine::{Engine, FrameRef, StageTiming, ViewInput};
 pub use frame::{Frame, ScreenView};
 use frame::{NoState, Part, Source};
 pub use settings::{frame_bytes, Backend, RenderSettings, MAX_FRAME_BYTES, MAX_PIXEL_VALUE};
+#[cfg(feature = "pose")]
+pub(crate) use step::check_finite_targets;
 pub use step::{Step, Targets};
 use views::ViewGradient;
 

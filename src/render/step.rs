@@ -26,14 +26,21 @@ pub struct Targets {
     pub(super) images: Vec<Image>,
 }
 
+/// Checks that every pixel of every target is finite: [`Error::InvalidSettings`] naming the first
+/// view and pixel that is not. Shared by [`Targets::new`] and the pose fit.
+pub(crate) fn check_finite_targets(images: &[Image]) -> Result<()> {
+    for (view, image) in images.iter().enumerate() {
+        if let Some(p) = image.data().iter().position(|v| !v.is_finite()) {
+            return Err(Error::InvalidSettings(format!("target {view} has a non-finite value at pixel {p}")));
+        }
+    }
+    Ok(())
+}
+
 impl Targets {
     /// Targets from one image per view. A non-finite pixel is an [`Error::InvalidSettings`].
     pub fn new(images: Vec<Image>) -> Result<Targets> {
-        for (view, image) in images.iter().enumerate() {
-            if let Some(p) = image.data().iter().position(|v| !v.is_finite()) {
-                return Err(Error::InvalidSettings(format!("target {view} has a non-finite value at pixel {p}")));
-            }
-        }
+        check_finite_targets(&images)?;
         let id = NEXT_TARGETS_ID.fetch_add(1 + images.len() as u64, Ordering::Relaxed);
         let view_ids = (1..=images.len() as u64).map(|k| id + k).collect();
         Ok(Targets { id, view_ids, images })

@@ -176,6 +176,9 @@ impl PoseFit {
     /// `settings.initial` (the rest pose when `None`), with Adam at `settings.learning_rate`
     /// and self-intersection weight `settings.lambda`. No blur and no pose prior until set
     /// ([`PoseFit::set_blur`], [`PoseFit::set_pose_prior`]; [`PoseFit::run`] sets the blur).
+    /// Errors: a target count other than the cameras' ([`Error::ViewCountMismatch`]), a target of
+    /// another size than its camera's ([`Error::SizeMismatch`]), a non-finite target pixel or
+    /// setting ([`Error::InvalidSettings`]), an invalid camera, initial pose or shape.
     ///
     /// ```
     /// use diffsil::pose::fit::{framing_cameras, FitSettings, PoseFit};
@@ -213,6 +216,7 @@ impl PoseFit {
             camera.validate()?;
             target.expect_size("target silhouette", camera.width, camera.height)?;
         }
+        crate::render::check_finite_targets(&targets)?;
         check_rate_and_lambda(learning_rate, lambda)?;
         initial.validate(model.joint_count())?;
         let checker = SelfIntersectionChecker::new(model.mesh.topology());

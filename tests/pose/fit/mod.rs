@@ -250,5 +250,15 @@ fn fit_rejects_mismatched_targets_and_bad_rates() {
         PoseFit::new(model.clone(), cameras.clone(), wrong_size, renderer(), settings(&rest, 0.01)).err().unwrap();
     assert!(matches!(err, Error::SizeMismatch { .. }), "{err}");
     let targets = vec![Image::filled(16, 16, 0.0); 2];
-    assert!(PoseFit::new(model, cameras, targets, renderer(), settings(&rest, f32::NAN)).is_err());
+    assert!(
+        PoseFit::new(model.clone(), cameras.clone(), targets.clone(), renderer(), settings(&rest, f32::NAN)).is_err()
+    );
+    // A target with a non-finite pixel is refused where the fit is made, naming the view and the pixel.
+    for bad in [f32::NAN, f32::INFINITY] {
+        let mut targets = targets.clone();
+        targets[1].data_mut()[37] = bad;
+        let err = PoseFit::new(model.clone(), cameras.clone(), targets, renderer(), settings(&rest, 0.01)).err();
+        let err = err.expect("a non-finite target pixel is an error");
+        assert!(err.to_string().contains("target 1") && err.to_string().contains("pixel 37"), "{err}");
+    }
 }
