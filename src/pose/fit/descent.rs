@@ -177,8 +177,8 @@ impl PoseFit {
     /// and self-intersection weight `settings.lambda`. No blur and no pose prior until set
     /// ([`PoseFit::set_blur`], [`PoseFit::set_pose_prior`]; [`PoseFit::run`] sets the blur).
     /// Errors: a target count other than the cameras' ([`Error::ViewCountMismatch`]), a target of
-    /// another size than its camera's ([`Error::SizeMismatch`]), a non-finite target pixel or
-    /// setting ([`Error::InvalidSettings`]), an invalid camera, initial pose or shape.
+    /// another size than its camera's ([`Error::SizeMismatch`]), a target pixel outside [0, 1] or
+    /// a non-finite setting ([`Error::InvalidSettings`]), an invalid camera, initial pose or shape.
     ///
     /// ```
     /// use diffsil::pose::fit::{framing_cameras, FitSettings, PoseFit};
@@ -217,6 +217,14 @@ impl PoseFit {
             target.expect_size("target silhouette", camera.width, camera.height)?;
         }
         crate::render::check_finite_targets(&targets)?;
+        for (view, target) in targets.iter().enumerate() {
+            if let Some((p, v)) = target.data().iter().enumerate().find(|(_, v)| !(0.0..=1.0).contains(*v)) {
+                return Err(Error::InvalidSettings(format!(
+                    "target {view} has the value {v} at pixel {p}: a silhouette's pixels are the covered \
+                     fraction, in [0, 1] (divide a 0–255 mask by 255)"
+                )));
+            }
+        }
         check_rate_and_lambda(learning_rate, lambda)?;
         initial.validate(model.joint_count())?;
         let checker = SelfIntersectionChecker::new(model.mesh.topology());

@@ -261,4 +261,15 @@ fn fit_rejects_mismatched_targets_and_bad_rates() {
         let err = err.expect("a non-finite target pixel is an error");
         assert!(err.to_string().contains("target 1") && err.to_string().contains("pixel 37"), "{err}");
     }
+    // So is a value outside [0, 1] (a 0–255 mask not divided by 255); 0 and 1 themselves are not.
+    for (bad, says) in [(255.0, "the value 255 at pixel 5"), (-0.5, "the value -0.5 at pixel 5")] {
+        let mut targets = targets.clone();
+        targets[0].data_mut()[5] = bad;
+        let err = PoseFit::new(model.clone(), cameras.clone(), targets, renderer(), settings(&rest, 0.01)).err();
+        let err = err.expect("a target pixel outside [0, 1] is an error").to_string();
+        assert!(err.contains("target 0") && err.contains(says) && err.contains("divide"), "{err}");
+    }
+    let mut edges = targets;
+    edges[0].data_mut()[..2].copy_from_slice(&[0.0, 1.0]);
+    assert!(PoseFit::new(model, cameras, edges, renderer(), settings(&rest, 0.01)).is_ok());
 }
