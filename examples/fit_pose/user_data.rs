@@ -179,6 +179,21 @@ pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32
         })
 }
 
+/// Whether more than half of `mask`'s border pixels are covered (above 0.5): a subject seldom
+/// touches most of the image's edge, a mask drawn the wrong way round (the subject dark on a
+/// bright background) does.
+pub fn looks_inverted(mask: &Image) -> bool {
+    let (w, h) = (mask.width(), mask.height());
+    let border =
+        (0..h).flat_map(|i| (0..w).map(move |j| (i, j))).filter(|&(i, j)| i == 0 || j == 0 || i + 1 == h || j + 1 == w);
+    let (mut covered, mut all) = (0usize, 0usize);
+    for (i, j) in border {
+        covered += usize::from(mask.get(i, j) > 0.5);
+        all += 1;
+    }
+    2 * covered > all
+}
+
 /// How a rendered silhouette agrees with its target: the IoU of the two masks thresholded at
 /// 0.5 (1 when both are empty) and the mean squared difference over the pixels (E_sl of one
 /// view, unblurred).

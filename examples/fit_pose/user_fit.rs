@@ -164,6 +164,14 @@ pub fn fit_masks(
             println!("{line}");
         }
     };
+    for (name, mask) in names.iter().zip(&targets) {
+        if user_data::looks_inverted(mask) {
+            say(format!(
+                "warning: {name}: most of the mask's border is covered: is it inverted? The subject must be the \
+                 bright pixels."
+            ));
+        }
+    }
     let mut renderer = renderer_for(o)?;
     // The fit runs where the subject is about `--fit-height` pixels tall; the report and the
     // pictures are at the masks' own resolution.

@@ -477,6 +477,18 @@ fn masks_load_as_coverage_or_thresholded() {
     for (s, h) in soft[0].data().iter().zip(hard[0].data()) {
         assert_eq!(*h, if *s > 0.5 { 1.0 } else { 0.0 });
     }
+    // The figure's masks are not taken for inverted ones, their inversions are; a subject cut
+    // off by the bottom edge is not either.
+    assert!(hard.iter().all(|m| !user_data::looks_inverted(m)));
+    let inverted = diffsil::Image::from_vec(SIZE.0, SIZE.1, hard[0].data().iter().map(|v| 1.0 - v).collect()).unwrap();
+    assert!(user_data::looks_inverted(&inverted));
+    let mut cropped = diffsil::Image::filled(SIZE.0, SIZE.1, 0.0);
+    for i in SIZE.1 / 2..SIZE.1 {
+        for j in 10..30 {
+            cropped.data_mut()[(i * SIZE.0 + j) as usize] = 1.0;
+        }
+    }
+    assert!(!user_data::looks_inverted(&cropped));
     let (iou, energy) = user_data::agreement(&soft[0], &soft[0]);
     assert_eq!((iou, energy), (1.0, 0.0));
     let (iou, energy) = user_data::agreement(&hard[0], &diffsil::Image::filled(SIZE.0, SIZE.1, 0.0));
