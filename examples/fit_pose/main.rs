@@ -174,7 +174,7 @@ fn own_targets(
     let truth_mesh = Mesh::with_topology(truth_vertices.clone(), model.mesh.topology().clone())?;
     let mut clean = renderer.render(&truth_mesh, &cameras)?.images().to_vec();
     if let Some(threshold) = o.threshold {
-        clean = clean.iter().map(|t| masks::harden(t, threshold)).collect();
+        clean = clean.into_iter().map(|t| t.thresholded(threshold)).collect();
     }
     let targets = clean
         .iter()

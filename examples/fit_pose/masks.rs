@@ -1,5 +1,4 @@
-//! Imperfect target masks: a silhouette grown or shrunk by one pixel, or with pixels flipped;
-//! and hard masks from rendered coverage.
+//! Imperfect target masks: a silhouette grown or shrunk by one pixel, or with pixels flipped.
 
 use diffsil::random::SplitMix64;
 use diffsil::Image;
@@ -57,14 +56,4 @@ pub fn apply(noise: MaskNoise, image: &Image, fraction: f64, seed: u64) -> Image
             out
         }
     }
-}
-
-/// `image` hardened as a segmentation's mask: 1 where a pixel's value is above `threshold`,
-/// else 0 (as `TargetMode::Threshold` reads a PNG).
-pub fn harden(image: &Image, threshold: f32) -> Image {
-    let mut out = image.clone();
-    for v in out.data_mut() {
-        *v = if *v > threshold { 1.0 } else { 0.0 };
-    }
-    out
 }

@@ -84,7 +84,7 @@ pub fn load_png_target(path: impl AsRef<Path>, mode: TargetMode) -> Result<Image
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| image_error(path, e))?;
     let (width, height) = (decoded.width(), decoded.height());
-    let mut values = match &decoded {
+    let values = match &decoded {
         DynamicImage::ImageLuma8(b) => pixel_values(b.as_raw(), 1, u8::MAX.into()),
         DynamicImage::ImageLumaA8(b) => pixel_values(b.as_raw(), 2, u8::MAX.into()),
         DynamicImage::ImageRgb8(b) => pixel_values(b.as_raw(), 3, u8::MAX.into()),
@@ -97,12 +97,11 @@ pub fn load_png_target(path: impl AsRef<Path>, mode: TargetMode) -> Result<Image
         DynamicImage::ImageRgba32F(b) => pixel_values(b.as_raw(), 4, 1.0),
         other => pixel_values(other.to_rgba32f().as_raw(), 4, 1.0),
     };
-    if let TargetMode::Threshold(t) = mode {
-        for v in &mut values {
-            *v = if *v > t { 1.0 } else { 0.0 };
-        }
-    }
-    Image::from_vec(width, height, values)
+    let image = Image::from_vec(width, height, values)?;
+    Ok(match mode {
+        TargetMode::Threshold(t) => image.thresholded(t),
+        TargetMode::Coverage => image,
+    })
 }
 
 /// Per-pixel values in [0, 1] from interleaved samples with `channels` channels (1: gray,

@@ -51,6 +51,23 @@ impl Image {
         self.data
     }
 
+    /// The image hardened at `threshold`: 1 where a pixel's value is above it, else 0 (what
+    /// [`TargetMode::Threshold`](crate::io::TargetMode::Threshold) does to a loaded mask).
+    ///
+    /// ```
+    /// use diffsil::Image;
+    ///
+    /// let soft = Image::from_vec(3, 1, vec![0.2, 0.5, 0.8])?;
+    /// assert_eq!(soft.thresholded(0.5).data(), &[0.0, 0.0, 1.0]);
+    /// # Ok::<(), diffsil::Error>(())
+    /// ```
+    pub fn thresholded(mut self, threshold: f32) -> Image {
+        for v in &mut self.data {
+            *v = if *v > threshold { 1.0 } else { 0.0 };
+        }
+        self
+    }
+
     /// Value of pixel (row, column).
     ///
     /// # Panics
