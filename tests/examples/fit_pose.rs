@@ -144,3 +144,17 @@ fn plain_is_the_papers_descent_and_the_default_is_the_librarys_method() {
     let no_final = parse(&["fit_pose", "--no-thinned-final-run"]);
     assert_eq!(no_final, FitOptions { thinned_final_run: false, ..FitOptions::default() });
 }
+
+/// The final line's `mean_iou`: the fitted silhouettes' IoU with the targets, each view's at 0.5,
+/// averaged; low where nothing was fitted, near 1 after a fit.
+#[test]
+fn a_fit_reports_how_its_silhouettes_match_the_targets() {
+    let model = builtin_figure();
+    let outcome = |iterations: &str| {
+        let args = ["fit_pose", "--figure", "--resolution", "32", "--seed", "2", "--iterations", iterations];
+        example::fit_seed(&model, &example::Options::try_parse_from(args).unwrap(), false, true).unwrap()
+    };
+    let (none, fitted) = (outcome("0"), outcome("150"));
+    assert!(fitted.mean_iou > 0.85 && fitted.mean_iou <= 1.0, "after the fit: {}", fitted.mean_iou);
+    assert!(none.mean_iou < fitted.mean_iou - 0.05, "unfitted {} against fitted {}", none.mean_iou, fitted.mean_iou);
+}

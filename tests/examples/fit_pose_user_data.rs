@@ -373,11 +373,12 @@ fn as_user_data_fits_the_own_targets_from_the_masks_and_cameras_alone() {
     let model = builtin_figure();
     // The facing given: the built-in figure at this size and in 60 steps is not told front from
     // back (`facing_turns_the_start_or_is_found` finds it at 120 steps).
-    let error = |extra: &[&str]| {
+    let outcome = |extra: &[&str]| {
         let all = [&args[..], &["--as-user-data", "--iterations", "60", "--facing", "0"], extra].concat();
-        example::fit_seed(&model, &example::Options::try_parse_from(all).unwrap(), false, true).unwrap().error_m
+        example::fit_seed(&model, &example::Options::try_parse_from(all).unwrap(), false, true).unwrap()
     };
-    let (placed, unplaced) = (error(&[]), error(&["--no-placement"]));
+    let placed_fit = outcome(&[]);
+    let (placed, unplaced) = (placed_fit.error_m, outcome(&["--no-placement"]).error_m);
     assert!(placed < 0.03 && placed < 0.2 * unplaced, "per-vertex error {placed:.4} placed, {unplaced:.4} unplaced");
     // The same fit as the exported files give `--targets` (hard masks and f32 cameras survive
     // PNG and JSON unchanged): the same error, to the bit.
@@ -386,8 +387,12 @@ fn as_user_data_fits_the_own_targets_from_the_masks_and_cameras_alone() {
     let out = crate::common::files::temp_dir();
     let extra = ["--threshold", "0.5", "--iterations", "60", "--facing", "0", "--truth", truth.to_str().unwrap()];
     let o = user_options(&masks, &dir.join("cameras.json"), &[&extra[..], &["--out", out.to_str().unwrap()]].concat());
-    let from_files = example::fit_user_data(&model, &o).unwrap().error_m;
-    assert_eq!(from_files, Some(placed), "--as-user-data and the exported files fit alike");
+    let from_files = example::fit_user_data(&model, &o).unwrap();
+    assert_eq!(from_files.error_m, Some(placed), "--as-user-data and the exported files fit alike");
+    // The final line's IoU is the mean of the report's per view.
+    let mean_after = from_files.after.iter().map(|a| a.0).sum::<f64>() / 4.0;
+    assert_eq!(placed_fit.mean_iou, mean_after);
+    assert!(mean_after > 0.8, "mean IoU {mean_after}");
     // What goes with it and what does not.
     let parse =
         |extra: &[&str]| example::Options::try_parse_from([&["fit_pose", "--as-user-data"][..], extra].concat());
