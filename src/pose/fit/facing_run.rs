@@ -21,7 +21,9 @@ pub struct FacingRun {
     /// The pass: its run (the hypothesis phase over the runner-up facing's starting poses), swap
     /// test and crossed legs.
     pub pass: PassReport,
-    /// The energy where the pass ended; `None` when it was cancelled.
+    /// The energy where the pass ended; `None` when its own run was cancelled
+    /// ([`PassReport::ended`]: a cancelled run from its crossed legs leaves the pass at the lowest
+    /// of its other runs, which is compared with the first pass's as any end is).
     pub energy: Option<f64>,
     /// Whether the fit goes on from this pass's end (it ended below the first pass's) rather
     /// than from the first pass's.
@@ -67,7 +69,7 @@ pub(super) fn run_from_runner_up(
     let mut callback =
         |fit: &PoseFit, progress: &Progress| on_step(fit, &Progress { step: offset + progress.step, ..*progress });
     let pass = run_pass(fit, options, schedule, starts, outline_rate, &mut callback)?;
-    let energy = if pass.cancelled() { None } else { Some(fit.energy()?) };
+    let energy = if pass.ended() { Some(fit.energy()?) } else { None };
     let kept = energy.is_some_and(|e| e < first_energy);
     if !kept {
         fit.set_state(first)?;

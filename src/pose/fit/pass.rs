@@ -33,6 +33,14 @@ impl PassReport {
             || self.crossed_legs.as_ref().is_some_and(|c| c.runs.iter().any(|r| r.report.stop == Stop::Cancelled))
     }
 
+    /// Whether the pass's end is a fitted state whose energy means something: its own run was
+    /// not cancelled. (Where a run from its crossed legs was, the pass ended at the lowest of its
+    /// other runs, as every pass ends.) What [`FacingRun::energy`](super::FacingRun::energy)
+    /// and [`RestartRun::energy`](super::RestartRun::energy) follow.
+    pub fn ended(&self) -> bool {
+        self.report.stop != Stop::Cancelled
+    }
+
     /// Adam steps of the pass, the runs from its crossed legs included (the swap test's and the
     /// crossed pose's short refinements are not counted).
     pub fn steps(&self) -> u32 {

@@ -8,7 +8,7 @@
 use std::ops::ControlFlow;
 
 use super::pass::run_pass;
-use super::{FitOptions, FitState, PassReport, PoseFit, Progress, Schedule, Stop};
+use super::{FitOptions, FitState, PassReport, PoseFit, Progress, Schedule};
 use crate::pose::skin::Pose;
 use crate::{Error, Image, Result};
 
@@ -133,7 +133,8 @@ pub struct RestartRun {
     /// The pass: its run (its steps follow the first pass's and the earlier restarts' in the
     /// callback's [`Progress`]), swap test and crossed legs.
     pub pass: PassReport,
-    /// The energy where it ended; `None` when its run was cancelled.
+    /// The energy where it ended; `None` when its own run was cancelled ([`PassReport::ended`]:
+    /// a cancelled run from its crossed legs leaves it at the lowest of its other runs).
     pub energy: Option<f64>,
 }
 
@@ -289,7 +290,7 @@ fn restart_run(
         fit.put_coarse_proxy(proxy);
     }
     let pass = pass?;
-    let energy = if pass.report.stop == Stop::Cancelled { None } else { Some(fit.energy()?) };
+    let energy = if pass.ended() { Some(fit.energy()?) } else { None };
     Ok(RestartRun { start: plan.start, pass, energy })
 }
 

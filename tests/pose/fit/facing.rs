@@ -167,3 +167,53 @@ fn the_runner_up_facing_runs_its_own_pass_and_the_lower_end_is_kept() {
         assert!(matches!(options.validate(), Err(Error::InvalidSettings(_))), "{bad}");
     }
 }
+
+/// A cancel in a run from the runner-up pass's crossed legs leaves that pass at the lowest of its
+/// other runs (as every pass ends), so its end is still compared with the first pass's
+/// (`PassReport::ended`) and the fit ends at the lower of the two.
+#[test]
+fn a_runner_up_pass_cancelled_in_its_crossed_legs_keeps_its_end() {
+    let model = builtin_figure();
+    let truth = random_pose(&random_pose_limits(&model.skeleton), 20f32.to_radians(), 3);
+    let (model, cameras, targets) = super::call::views_of(&truth, 32);
+    let options = FitOptions {
+        steps: 120,
+        facings: vec![0.0, PI],
+        facing_within: 1e9,
+        crossed_legs_within: 1e9,
+        restart_arm_swing: 0.0,
+        thinned_restarts: Vec::new(),
+        thinned_final_run: false,
+        polish_steps: 0,
+        ..FitOptions::default()
+    };
+    let run = |cancel_at: u32| {
+        fit(model.clone(), cameras.clone(), targets.clone(), renderer(), &options, |_, progress| {
+            if progress.step == cancel_at {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        })
+        .unwrap()
+    };
+    let whole = run(u32::MAX);
+    let runner = whole.facing_run.as_ref().expect("the runner-up's pass ran");
+    let crossed = runner.pass.crossed_legs.as_ref().expect("its crossed legs looked at");
+    assert!(!crossed.runs.is_empty(), "runs from its crossed legs");
+    // The second step of the runner-up pass's first run from its crossed legs.
+    let cancel_at = whole.first.steps() + runner.pass.report.steps + 2;
+    let mut cancelled = run(cancel_at);
+    let runner = cancelled.facing_run.clone().expect("the runner-up's pass ran");
+    assert!(runner.pass.cancelled() && runner.pass.ended(), "cancelled in its crossed legs, its own run ended");
+    let end = runner.energy.expect("the pass's end has an energy");
+    assert_eq!(
+        runner.kept,
+        end < runner.first_energy,
+        "{end:.3e} against the first pass's {:.3e}",
+        runner.first_energy
+    );
+    let lower = end.min(runner.first_energy);
+    assert_eq!(cancelled.fit.energy().unwrap(), lower, "the fit ends at the lower of the two passes' ends");
+    assert!(cancelled.restart.is_none() && cancelled.polish.is_none(), "nothing runs after a cancel");
+}
