@@ -138,7 +138,8 @@ pub fn cameras_json(cameras: &[Camera]) -> Result<String, String> {
 
 /// The masks at `paths`, one per camera and of its size; `threshold` hardens them (see
 /// `TargetMode`), otherwise a pixel's value in [0, 1] is its coverage. Masks that are all empty
-/// (no subject in any view) are refused: a fit would only move the body out of sight.
+/// (no subject in any view) are refused: a fit would only move the body out of sight; so are
+/// masks that are all covered (no outline in any view: nothing to fit either).
 pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32>) -> Result<Vec<Image>, String> {
     if paths.len() != cameras.len() {
         return Err(format!(
@@ -173,6 +174,13 @@ pub fn load_targets(paths: &[PathBuf], cameras: &[Camera], threshold: Option<f32
                 return Err(format!(
                     "every mask is empty{below}: no view shows the subject, so there is nothing to fit (the \
                      subject must be the bright pixels)"
+                ));
+            }
+            if masks.iter().all(|m| m.data().iter().all(|v| *v == 1.0)) {
+                let below = threshold.map_or(String::new(), |t| format!(" once hardened at --threshold {t}"));
+                return Err(format!(
+                    "every mask is covered everywhere{below}: no view shows an outline of the subject, so there \
+                     is nothing to fit (are the masks inverted? The subject must be the bright pixels)"
                 ));
             }
             Ok(masks)

@@ -449,6 +449,15 @@ fn bad_user_data_are_clear_errors() {
     assert!(e.contains("every mask is empty: no view shows the subject"), "{e}");
     let e = error(&user_options(&masks, &cameras, &["--threshold", "1"]));
     assert!(e.contains("every mask is empty once hardened at --threshold 1"), "{e}");
+    let white: Vec<PathBuf> = (0..3).map(|k| cameras.with_file_name(format!("white{k}.png"))).collect();
+    for path in &white {
+        diffsil::io::save_png(&diffsil::Image::filled(SIZE.0, SIZE.1, 1.0), path).unwrap();
+    }
+    let e = error(&user_options(&white, &cameras, &[]));
+    assert!(e.contains("every mask is covered everywhere: no view shows an outline"), "{e}");
+    // One view covered everywhere (a close-up) is not refused on its own.
+    let one_white = [white[0].clone(), masks[1].clone(), masks[2].clone()];
+    assert!(user_data::load_targets(&one_white, &user_data::load_cameras(&cameras).unwrap(), None).is_ok());
 
     // Zero distortion coefficients are no distortion.
     let mut undistorted = specs.clone();
