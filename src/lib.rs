@@ -152,7 +152,7 @@ pub use render::{
     MAX_FRAME_BYTES, MAX_PIXEL_VALUE,
 };
 pub use scene::camera::{Camera, Extrinsics, Projection};
-pub use scene::image::Image;
+pub use scene::image::{Image, PixelRect};
 pub use scene::mesh::{Mesh, Topology};
 pub use scene::orbit::Orbit;
 pub use scene::shapes;

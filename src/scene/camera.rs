@@ -284,6 +284,48 @@ impl Camera {
         Ok(Camera { projection, width: self.width / factor, height: self.height / factor, ..*self })
     }
 
+    /// The part `rect` of this camera's image as a camera of its own, `rect.width × rect.height`
+    /// pixels: it projects every point where this one does, less `(rect.x, rect.y)`, so it goes
+    /// with [`Image::cropped`](crate::Image::cropped) targets. A perspective camera becomes the
+    /// equivalent pinhole with its principal point moved (by whole pixels: exact in f32 below
+    /// 2²⁴); pose, near and far are kept.
+    ///
+    /// ```
+    /// use diffsil::{Camera, PixelRect, Vec3};
+    ///
+    /// let camera = Camera::perspective(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, 0.8, 640, 480);
+    /// let crop = camera.cropped(PixelRect { x: 250, y: 180, width: 100, height: 120 }).unwrap();
+    /// assert_eq!((crop.width, crop.height), (100, 120));
+    /// let p = Vec3::new(0.1, 0.2, -0.3);
+    /// let (a, b) = (camera.params().project(p).0, crop.params().project(p).0);
+    /// assert!((a - diffsil::Vec2::new(250.0, 180.0) - b).length() < 1e-3);
+    /// ```
+    ///
+    /// Errors: [`Error::InvalidSettings`] for an empty `rect`, one reaching beyond the image, or
+    /// an orthographic camera cropped other than to a centred band of full height (that
+    /// projection keeps its image centre at the middle and its scale in the image height).
+    pub fn cropped(&self, rect: crate::PixelRect) -> Result<Camera> {
+        rect.check_inside("camera", self.width, self.height)?;
+        // A band of full height about the middle: the same projection, narrower.
+        let band =
+            2 * rect.x as u64 + rect.width as u64 == self.width as u64 && rect.y == 0 && rect.height == self.height;
+        let projection = match self.projection {
+            Projection::Orthographic { .. } | Projection::Perspective { .. } if band => self.projection,
+            Projection::Orthographic { .. } => {
+                return Err(Error::InvalidSettings(format!(
+                    "an orthographic {}x{} camera cannot be cropped to {}x{} pixels at ({}, {}): only to a band of \
+                     full height centred on the image",
+                    self.width, self.height, rect.width, rect.height, rect.x, rect.y
+                )))
+            }
+            Projection::Pinhole { .. } | Projection::Perspective { .. } => {
+                let [fx, fy, cx, cy] = self.intrinsics();
+                Projection::Pinhole { fx, fy, cx: cx - rect.x as f32, cy: cy - rect.y as f32 }
+            }
+        };
+        Ok(Camera { projection, width: rect.width, height: rect.height, ..*self })
+    }
+
     /// This camera posed by `extrinsics` (OpenCV axes), with `eye`, `target` and `up` set to the
     /// equivalent look-at (eye at the camera centre, target one unit along the optical axis, up
     /// = −y of the camera).

@@ -125,6 +125,29 @@ impl Image {
         Ok(Image { width, height, data })
     }
 
+    /// The pixels of `rect` as an image of their own: pixel `(i, j)` of the result is pixel
+    /// `(rect.y + i, rect.x + j)` of this one. Targets cropped so go with
+    /// [`Camera::cropped`](crate::Camera::cropped) cameras.
+    ///
+    /// ```
+    /// use diffsil::{Image, PixelRect};
+    ///
+    /// let image = Image::from_vec(3, 2, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
+    /// let right = image.cropped(PixelRect { x: 1, y: 0, width: 2, height: 2 }).unwrap();
+    /// assert_eq!((right.width(), right.height(), right.data()), (2, 2, &[1.0, 2.0, 4.0, 5.0][..]));
+    /// ```
+    ///
+    /// Errors: [`Error::InvalidSettings`] for an empty `rect` or one reaching beyond the image.
+    pub fn cropped(&self, rect: PixelRect) -> Result<Image> {
+        rect.check_inside("image", self.width, self.height)?;
+        let stride = self.width as usize;
+        let data = (rect.y..rect.y + rect.height)
+            .flat_map(|i| &self.data[i as usize * stride + rect.x as usize..][..rect.width as usize])
+            .copied()
+            .collect();
+        Ok(Image { width: rect.width, height: rect.height, data })
+    }
+
     /// Errors with [`Error::SizeMismatch`] unless this image is `width × height`.
     pub fn expect_size(&self, what: &'static str, width: u32, height: u32) -> Result<()> {
         if self.width != width || self.height != height {
@@ -151,4 +174,34 @@ pub(crate) fn check_downsampling(what: &str, factor: u32, width: u32, height: u3
         )));
     }
     Ok(())
+}
+
+/// A rectangle of whole pixels of an image: the columns `x..x + width` and the rows
+/// `y..y + height` ([`Image::cropped`], [`Camera::cropped`](crate::Camera::cropped)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PixelRect {
+    /// The first column.
+    pub x: u32,
+    /// The first row.
+    pub y: u32,
+    /// Columns, at least 1.
+    pub width: u32,
+    /// Rows, at least 1.
+    pub height: u32,
+}
+
+impl PixelRect {
+    /// Errors with [`Error::InvalidSettings`] unless this rectangle is non-empty and lies inside a
+    /// `width × height` image (`what` names the image or camera).
+    pub(crate) fn check_inside(&self, what: &str, width: u32, height: u32) -> Result<()> {
+        let inside = |start: u32, size: u32, side: u32| size >= 1 && start.checked_add(size).is_some_and(|e| e <= side);
+        if !(inside(self.x, self.width, width) && inside(self.y, self.height, height)) {
+            return Err(Error::InvalidSettings(format!(
+                "crop of {}x{} pixels at ({}, {}) for a {width}x{height} {what}: it must hold at least one pixel \
+                 and lie inside",
+                self.width, self.height, self.x, self.y
+            )));
+        }
+        Ok(())
+    }
 }

@@ -10,8 +10,8 @@
 use crate::common::fd::{Rng, ViewReference, H_2D};
 use crate::common::scenes::{blob_3d, torus_fold_3d, Scene3d};
 use diffsil::{
-    camera_gradient, Camera, Error, Extrinsics, Image, Mat3, Projection, RenderSettings, Renderer, RigidTransform,
-    Vec2, Vec3,
+    camera_gradient, Camera, Error, Extrinsics, Image, Mat3, PixelRect, Projection, RenderSettings, Renderer,
+    RigidTransform, Vec2, Vec3,
 };
 use glam::{DMat3, DQuat, DVec3};
 
@@ -401,4 +401,73 @@ fn a_downsampled_image_averages_its_blocks() {
     // Sums in f64: a block of values an f32 sum would round loses nothing.
     let big = Image::from_vec(2, 2, vec![1e8, 1.0, 1.0, 1.0]).unwrap();
     assert_eq!(big.downsampled(2).unwrap().data(), &[((1e8 + 3.0) / 4.0) as f32]);
+}
+
+// Cropping: `Camera::cropped` with `Image::cropped`.
+
+/// A render's window is the render of the cropped camera: the same coverage to the sample (the
+/// crop moves the image by whole pixels, so the snapped vertices and the samples move with it),
+/// for look-at perspective (off-centre: a pinhole), pinhole and OpenCV cameras, and a centred
+/// band of full height that keeps the perspective and orthographic projections.
+#[test]
+fn a_cropped_render_is_the_cropped_cameras_render() {
+    let mesh = blob_3d().mesh;
+    let rects = [
+        PixelRect { x: 7, y: 5, width: 30, height: 22 },
+        PixelRect { x: 0, y: 0, width: 48, height: 40 },
+        PixelRect { x: 20, y: 13, width: 1, height: 1 },
+    ];
+    for rect in rects {
+        let cameras = downsampling_cameras(48, 40);
+        let full = coverage(&mesh, &cameras, 4);
+        let cropped: Vec<Camera> = cameras.iter().map(|c| c.cropped(rect).unwrap()).collect();
+        for (camera, crop) in cameras.iter().zip(&cropped) {
+            assert_eq!((crop.width, crop.height), (rect.width, rect.height));
+            assert_eq!(
+                (crop.extrinsics, crop.eye, crop.near, crop.far),
+                (camera.extrinsics, camera.eye, camera.near, camera.far)
+            );
+        }
+        let windows = coverage(&mesh, &cropped, 4);
+        for (view, (full, window)) in full.iter().zip(&windows).enumerate() {
+            assert_eq!(&full.cropped(rect).unwrap(), window, "{rect:?}, view {view}");
+        }
+    }
+    let centred = PixelRect { x: 8, y: 0, width: 32, height: 40 };
+    let perspective = Camera::perspective(Vec3::new(0.3, 0.4, 3.0), Vec3::ZERO, 0.9, 48, 40);
+    assert_eq!(perspective.cropped(centred).unwrap().projection, perspective.projection);
+    let ortho = Camera::orthographic(Vec3::new(0.2, 0.1, 3.0), Vec3::ZERO, 2.4, 48, 40);
+    let crop = ortho.cropped(centred).unwrap();
+    assert_eq!(crop.projection, ortho.projection);
+    let (full, window) = (coverage(&mesh, &[ortho], 4), coverage(&mesh, &[crop], 4));
+    assert_eq!(full[0].cropped(centred).unwrap(), window[0]);
+}
+
+#[test]
+fn bad_crops_are_errors() {
+    let camera = Camera::from_opencv(K, R, T, 64, 48).unwrap();
+    let image = Image::filled(64, 48, 0.5);
+    let bad = [
+        PixelRect { x: 0, y: 0, width: 0, height: 10 },
+        PixelRect { x: 0, y: 0, width: 10, height: 0 },
+        PixelRect { x: 60, y: 0, width: 5, height: 10 },
+        PixelRect { x: 0, y: 40, width: 10, height: 9 },
+        PixelRect { x: u32::MAX, y: 0, width: 2, height: 2 },
+        PixelRect { x: 0, y: 1, width: 2, height: u32::MAX },
+    ];
+    for rect in bad {
+        assert!(matches!(camera.cropped(rect), Err(Error::InvalidSettings(_))), "camera {rect:?}");
+        assert!(matches!(image.cropped(rect), Err(Error::InvalidSettings(_))), "image {rect:?}");
+    }
+    let whole = PixelRect { x: 0, y: 0, width: 64, height: 48 };
+    assert_eq!(image.cropped(whole).unwrap(), image);
+    assert_eq!(camera.cropped(whole).unwrap(), camera);
+    // (fx, fy, cx, cy) = (100, 80, 30.5, 20.5): the principal point moved by the corner.
+    let corner = camera.cropped(PixelRect { x: 10, y: 4, width: 30, height: 30 }).unwrap();
+    assert_eq!(corner.intrinsics(), [100.0, 80.0, 20.5, 16.5]);
+    let ortho = Camera::orthographic(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 2.0, 64, 48);
+    for rect in [PixelRect { x: 1, y: 0, width: 62, height: 47 }, PixelRect { x: 0, y: 0, width: 62, height: 48 }] {
+        let e = ortho.cropped(rect).unwrap_err().to_string();
+        assert!(e.contains("orthographic") && e.contains("centred"), "{e}");
+    }
 }

@@ -1,10 +1,13 @@
-//! The resolution a fit works at (`subject_height`, `downsample_factor`): hand-made masks, and
-//! the framing the README's tables use, which needs no downsampling.
+//! The resolution a fit works at (`subject_height`, `downsample_factor`) and its windows
+//! (`subject_windows`): hand-made masks, and the framing the README's tables use, which needs
+//! no downsampling and no window.
 
-use diffsil::pose::fit::{downsample_factor, framing_ring, subject_height, FIT_SUBJECT_HEIGHT, RAISED_ELEVATION_DEG};
+use diffsil::pose::fit::{
+    downsample_factor, framing_ring, subject_height, subject_windows, FIT_SUBJECT_HEIGHT, RAISED_ELEVATION_DEG,
+};
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::Pose;
-use diffsil::{Image, Mesh, RenderSettings, Renderer};
+use diffsil::{Image, Mesh, PixelRect, RenderSettings, Renderer};
 
 /// A `width × height` mask with the rows `rows` set to `value` in column 1.
 fn mask(width: u32, height: u32, rows: std::ops::Range<usize>, value: f32) -> Image {
@@ -59,6 +62,7 @@ fn the_tables_framing_needs_no_downsampling() {
     let tallest = masks.iter().map(subject_height).max().unwrap();
     assert!((50..=70).contains(&tallest), "the body is {tallest} pixels tall");
     assert_eq!(downsample_factor(&masks, FIT_SUBJECT_HEIGHT), 1);
+    assert_eq!(subject_windows(&masks), None, "framed already");
     // The same rig at 4 times the resolution is brought back to it.
     let large = framing_ring(&rest, 4, 256, RAISED_ELEVATION_DEG.to_radians());
     let masks = Renderer::new(RenderSettings::default()).unwrap().render(&rest, &large).unwrap().images().to_vec();
@@ -66,4 +70,48 @@ fn the_tables_framing_needs_no_downsampling() {
     assert!(tallest_large.abs_diff(4 * tallest) <= 4, "{tallest_large} pixels tall at 256², {tallest} at 64²");
     assert_eq!(downsample_factor(&masks, FIT_SUBJECT_HEIGHT), tallest_large / FIT_SUBJECT_HEIGHT);
     assert!(tallest_large / (tallest_large / FIT_SUBJECT_HEIGHT) >= FIT_SUBJECT_HEIGHT);
+}
+
+/// A `width × height` mask covered (1) in the box `x0..x1 × y0..y1`.
+fn block(width: u32, height: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> Image {
+    let mut image = Image::filled(width, height, 0.0);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            image.data_mut()[(y * width + x) as usize] = 1.0;
+        }
+    }
+    image
+}
+
+#[test]
+fn windows_frame_a_small_subject_in_every_view_alike() {
+    // Subjects 40 x 16 (lying down) and 10 x 30 in 200 x 120 masks: one side for both, 1.25 times
+    // the largest extent (40), each centred on its own subject.
+    let masks = [block(200, 120, (20, 60), (50, 66)), block(200, 120, (150, 160), (2, 32))];
+    let windows = subject_windows(&masks).unwrap();
+    assert_eq!(
+        windows,
+        vec![PixelRect { x: 15, y: 33, width: 50, height: 50 }, PixelRect { x: 130, y: 0, width: 50, height: 50 }],
+        "the second moved down inside the mask"
+    );
+    // Each window holds its subject: cropped, the mask keeps every covered pixel.
+    for (mask, window) in masks.iter().zip(&windows) {
+        let sum = |m: &Image| m.data().iter().sum::<f32>();
+        assert_eq!(sum(&mask.cropped(*window).unwrap()), sum(mask));
+    }
+    // At a subject's edge of the mask the window moves inside it too.
+    let corner = subject_windows(&[block(200, 120, (190, 200), (0, 8))]).unwrap();
+    assert_eq!(corner, vec![PixelRect { x: 187, y: 0, width: 13, height: 13 }]);
+    // A window leaving less than a quarter of a side out: none. 4 · 50 ≤ 3 · 67 but not 3 · 66.
+    assert!(subject_windows(&[block(200, 67, (20, 60), (10, 26))]).is_some());
+    assert_eq!(subject_windows(&[block(200, 66, (20, 60), (10, 26))]), None);
+    let small_mask = block(50, 66, (10, 20), (10, 20));
+    assert_eq!(subject_windows(&[block(200, 120, (20, 60), (50, 66)), small_mask]), None, "one mask small");
+    // No subject in a view, or no masks: none.
+    assert_eq!(subject_windows(&[masks[0].clone(), Image::filled(200, 120, 0.0)]), None);
+    assert_eq!(subject_windows(&[]), None);
+    // Only pixels above one half count.
+    let mut faint = masks[0].clone();
+    faint.data_mut()[119 * 200 + 199] = 0.5;
+    assert_eq!(subject_windows(&[faint]).unwrap()[0], windows[0]);
 }
