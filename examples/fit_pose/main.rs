@@ -27,7 +27,8 @@
 //! With `--targets` and `--cameras` the masks and cameras are the user's own (see `user_data.rs`
 //! for the JSON format): the model is fitted to them from its rest pose moved to where the masks
 //! place the body (`--no-placement`: where it was built), stood along the cameras' up (`--up`),
-//! tried at four facings (`--facing DEG`: turned by that much instead), at a resolution
+//! tried at four facings (`--facing DEG`: turned by that much instead), in windows about the
+//! subject where it is small in the masks (`--no-crop`: the whole masks), at a resolution
 //! where the body is about `--fit-height` pixels tall, with no ground truth (unless `--truth`
 //! gives one), so the report is each view's silhouette IoU and energy before and after.
 //! `--export DIR` writes the example's own targets, cameras and truth in those formats instead
@@ -50,8 +51,8 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    downsample_factor, fit, per_vertex_error, random_pose, turned_about_vertical, upright, CrossedLegsEnd, FitOptions,
-    Fitted, LimbSwap, PoseFit, Progress, Stop,
+    downsample_factor, fit, per_vertex_error, random_pose, subject_windows, turned_about_vertical, upright,
+    CrossedLegsEnd, FitOptions, Fitted, LimbSwap, PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -120,13 +121,49 @@ fn largest_extent(mesh: &Mesh) -> f64 {
     mesh.bounds().map_or(0.0, |(lo, hi)| f64::from((hi - lo).max_element()))
 }
 
-/// The cameras and masks downsampled together by [`downsample_factor`] for `height` (the
-/// `--fit-height`), with the factor.
-fn at_fit_height(cameras: &[Camera], masks: &[Image], height: u32) -> diffsil::Result<(u32, Vec<Camera>, Vec<Image>)> {
-    let factor = downsample_factor(masks, height);
-    let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<diffsil::Result<_>>()?;
-    let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<diffsil::Result<_>>()?;
-    Ok((factor, cameras, masks))
+/// Where a fit works: the cameras and masks cropped to windows about the subject where it is
+/// small in them ([`subject_windows`], unless `--no-crop`), then downsampled together by
+/// [`downsample_factor`] for `--fit-height`.
+pub struct FitFrame {
+    /// Whether the masks were cropped.
+    pub cropped: bool,
+    /// The downsampling factor.
+    pub factor: u32,
+    /// The cameras, cropped and downsampled.
+    pub cameras: Vec<Camera>,
+    /// The masks, cropped and downsampled.
+    pub masks: Vec<Image>,
+}
+
+impl FitFrame {
+    /// The frame of `masks` seen by `cameras` under `o`.
+    fn of(cameras: &[Camera], masks: &[Image], o: &Options) -> diffsil::Result<FitFrame> {
+        let windows = if o.no_crop { None } else { subject_windows(masks) };
+        let (cameras, masks) = match &windows {
+            Some(windows) => (
+                cameras.iter().zip(windows).map(|(c, w)| c.cropped(*w)).collect::<diffsil::Result<Vec<_>>>()?,
+                masks.iter().zip(windows).map(|(m, w)| m.cropped(*w)).collect::<diffsil::Result<Vec<_>>>()?,
+            ),
+            None => (cameras.to_vec(), masks.to_vec()),
+        };
+        let factor = downsample_factor(&masks, o.fit_height);
+        let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<diffsil::Result<_>>()?;
+        let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<diffsil::Result<_>>()?;
+        Ok(FitFrame { cropped: windows.is_some(), factor, cameras, masks })
+    }
+
+    /// How the frame differs from the masks', for a progress line: e.g. "cropped to the subject,
+    /// downsampled 5x"; `None` where it does not.
+    fn describe(&self) -> Option<String> {
+        let mut parts = Vec::new();
+        if self.cropped {
+            parts.push("cropped to the subject".to_string());
+        }
+        if self.factor > 1 {
+            parts.push(format!("downsampled {}x", self.factor));
+        }
+        (!parts.is_empty()).then(|| parts.join(", "))
+    }
 }
 
 /// A renderer with `--supersample` on `--backend`.
@@ -250,11 +287,13 @@ pub fn fit_seed(
         _ => None,
     };
     let o = turned.as_ref().unwrap_or(o);
-    // Where the subject is taller than `--fit-height`, the fit sees the masks downsampled.
-    let (factor, cameras, targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
-    if factor > 1 && !quiet {
-        println!("fitting at {}x{} (the targets downsampled {factor}x)", cameras[0].width, cameras[0].height);
+    // Where the subject is small in its masks the fit sees a window about it, and where it is
+    // taller than `--fit-height` the masks downsampled.
+    let frame = FitFrame::of(&cameras, &targets, o)?;
+    if let (Some(how), false) = (frame.describe(), quiet) {
+        println!("fitting at {}x{} (the targets {how})", frame.cameras[0].width, frame.cameras[0].height);
     }
+    let FitFrame { factor, cameras, masks: targets, .. } = frame;
     let o = &downsampled_nuisances(o, factor);
     let before = if pictures { Some(renderer.render(&rest_mesh, &cameras)?.images().to_vec()) } else { None };
 

@@ -1,8 +1,9 @@
 //! The fit to the user's own masks and cameras (`--targets`, `--cameras`): from the model's rest
 //! pose stood along the cameras' up and placed where the masks put the body
 //! (`diffsil::pose::fit::start_from_masks`), turned by `--facing DEG` or tried at four facings,
-//! at a resolution where the subject is about `--fit-height` pixels tall (masks and cameras
-//! downsampled together), reported as each view's silhouette IoU and energy before and after at
+//! in windows about the subject where it is small in the masks, at a resolution where it is
+//! about `--fit-height` pixels tall (masks and cameras cropped and downsampled together,
+//! `FitFrame`), reported as each view's silhouette IoU and energy before and after at
 //! the masks' own resolution and, where a ground truth is known (`--truth`, `--as-user-data`),
 //! the per-vertex error; and the writer of a fit's result (`--save`).
 
@@ -16,7 +17,7 @@ use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
-use super::{at_fit_height, downsampled_nuisances, fit_with_progress, renderer_for, report, sheet, user_data, Options};
+use super::{downsampled_nuisances, fit_with_progress, renderer_for, report, sheet, user_data, FitFrame, Options};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -33,6 +34,8 @@ pub fn save_fit(model: &SkinnedMesh, fit: &PoseFit, out: &Path) -> Result<(), Bo
 /// ([`user_data::agreement`]) at the start (the rest pose, placed) and at the end, at the masks' own
 /// resolution.
 pub struct DataOutcome {
+    /// Whether the fit saw windows about the subject (`--no-crop`, `FitFrame`).
+    pub cropped: bool,
     /// The factor the masks and cameras were downsampled by for the fit (`--fit-height`).
     pub factor: u32,
     /// Width and height of the first view's images in the fit.
@@ -173,12 +176,14 @@ pub fn fit_masks(
         }
     }
     let mut renderer = renderer_for(o)?;
-    // The fit runs where the subject is about `--fit-height` pixels tall; the report and the
-    // pictures are at the masks' own resolution.
-    let (factor, fit_cameras, fit_targets) = at_fit_height(&cameras, &targets, o.fit_height)?;
-    let tallest = fit_targets.iter().map(subject_height).max().unwrap_or(0);
-    let (w, h) = (fit_cameras[0].width, fit_cameras[0].height);
-    say(format!("fitting at {w}x{h} (the masks downsampled {factor}x; the subject {tallest} pixels tall at most)"));
+    // The fit runs in windows about a small subject, where it is about `--fit-height` pixels
+    // tall; the report and the pictures are at the masks' own resolution.
+    let frame = FitFrame::of(&cameras, &targets, o)?;
+    let tallest = frame.masks.iter().map(subject_height).max().unwrap_or(0);
+    let (w, h) = (frame.cameras[0].width, frame.cameras[0].height);
+    let how = frame.describe().unwrap_or_else(|| "as they are".to_string());
+    say(format!("fitting at {w}x{h} (the masks {how}; the subject {tallest} pixels tall at most)"));
+    let FitFrame { cropped, factor, cameras: fit_cameras, masks: fit_targets } = frame;
     let start = start(model, &mut renderer, (&cameras, &targets), o, quiet)?;
     let height_ratio = start.height_ratio;
     let start = start.pose;
@@ -213,6 +218,7 @@ pub fn fit_masks(
     let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
     let after = renderer.render(&posed, &cameras)?.images().to_vec();
     let mut outcome = DataOutcome {
+        cropped,
         factor,
         fit_size: (w, h),
         height_ratio,

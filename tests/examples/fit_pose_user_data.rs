@@ -176,6 +176,61 @@ fn large_masks_are_fitted_downsampled_and_reported_at_their_own_size() {
     assert_eq!(outcome.nuisances.0, 0.0, "as they are, the outline and not the surface offset");
 }
 
+/// `masks` and `cameras` (as `write_user_data` writes them) placed at `offset` in larger empty
+/// images of `size`, the cameras' principal points moved to match, in a fresh folder.
+fn padded(masks: &[PathBuf], cameras: &Path, size: (u32, u32), offset: (u32, u32)) -> (Vec<PathBuf>, PathBuf) {
+    let dir = crate::common::files::temp_dir();
+    let mut specs: Vec<Value> = serde_json::from_str(&std::fs::read_to_string(cameras).unwrap()).unwrap();
+    let paths = masks
+        .iter()
+        .zip(&mut specs)
+        .enumerate()
+        .map(|(k, (path, spec))| {
+            let mask = diffsil::io::load_png_target(path, diffsil::io::TargetMode::Coverage).unwrap();
+            let mut big = diffsil::Image::filled(size.0, size.1, 0.0);
+            for i in 0..mask.height() {
+                for j in 0..mask.width() {
+                    big.data_mut()[((i + offset.1) * size.0 + j + offset.0) as usize] = mask.get(i, j);
+                }
+            }
+            let path = dir.join(format!("mask{k}.png"));
+            diffsil::io::save_png(&big, &path).unwrap();
+            spec["K"][0][2] = json!(spec["K"][0][2].as_f64().unwrap() + offset.0 as f64);
+            spec["K"][1][2] = json!(spec["K"][1][2].as_f64().unwrap() + offset.1 as f64);
+            (spec["width"], spec["height"]) = (json!(size.0), json!(size.1));
+            path
+        })
+        .collect();
+    let json = dir.join("cameras.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&specs).unwrap()).unwrap();
+    (paths, json)
+}
+
+/// Masks where the subject is small (the test's 40 x 32 masks placed in 160 x 128 empty ones)
+/// are fitted in windows about it (`subject_windows`), where the figure fills its frame as in the
+/// masks it came from, and end about as close to the truth; `--no-crop` fits the whole masks.
+#[test]
+fn a_small_subject_is_fitted_in_windows_about_it() {
+    let (masks, cameras) = write_user_data();
+    let (big, big_cameras) = padded(&masks, &cameras, (160, 128), (70, 41));
+    let out = crate::common::files::temp_dir();
+    let model = builtin_figure();
+    let fit = |masks: &[PathBuf], cameras: &Path, iterations: &str, extra: &[&str]| {
+        let args = [&["--iterations", iterations, "--facing", "0", "--out", out.to_str().unwrap()], extra].concat();
+        example::fit_user_data(&model, &user_options(masks, cameras, &args)).unwrap()
+    };
+    let (framed, small) = (fit(&masks, &cameras, "60", &[]), fit(&big, &big_cameras, "60", &[]));
+    assert!(!framed.cropped && framed.fit_size == SIZE, "the test's masks are fitted as they are");
+    assert!(small.cropped, "a window about the subject");
+    let side = small.fit_size.0;
+    assert!(small.fit_size == (side, side) && side < 64 && 4 * side <= 3 * 128, "window {:?}", small.fit_size);
+    let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / 3.0;
+    let (framed_iou, small_iou) = (mean(&framed.after), mean(&small.after));
+    assert!(small_iou > framed_iou - 0.03, "mean IoU {small_iou:.3} in windows, {framed_iou:.3} framed");
+    let whole = fit(&big, &big_cameras, "3", &["--no-crop"]);
+    assert!(!whole.cropped && whole.fit_size == (160, 128));
+}
+
 /// Calibrated cameras put the world's origin anywhere: the figure standing far from where it
 /// was built (out of every view there) is fitted from the point where the masks' centres meet,
 /// and missed from its rest position (`--no-placement`).
