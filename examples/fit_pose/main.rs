@@ -51,8 +51,8 @@ use std::time::Instant;
 use clap::Parser;
 use diffsil::pose::figure::random_pose_limits;
 use diffsil::pose::fit::{
-    downsample_factor, fit, per_vertex_error, random_pose, subject_windows, turned_about_vertical, upright,
-    CrossedLegsEnd, FitOptions, Fitted, LimbSwap, PoseFit, Progress, Stop,
+    fit, per_vertex_error, random_pose, turned_about_vertical, upright, CrossedLegsEnd, FitFrame, FitOptions, Fitted,
+    LimbSwap, PoseFit, Progress, Stop,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, RenderSettings, Renderer};
@@ -121,49 +121,23 @@ fn largest_extent(mesh: &Mesh) -> f64 {
     mesh.bounds().map_or(0.0, |(lo, hi)| f64::from((hi - lo).max_element()))
 }
 
-/// Where a fit works: the cameras and masks cropped to windows about the subject where it is
-/// small in them ([`subject_windows`], unless `--no-crop`), then downsampled together by
-/// [`downsample_factor`] for `--fit-height`.
-pub struct FitFrame {
-    /// Whether the masks were cropped.
-    pub cropped: bool,
-    /// The downsampling factor.
-    pub factor: u32,
-    /// The cameras, cropped and downsampled.
-    pub cameras: Vec<Camera>,
-    /// The masks, cropped and downsampled.
-    pub masks: Vec<Image>,
+/// Where a fit of `masks` seen by `cameras` works under `o`: windows about a small subject
+/// (unless `--no-crop`), downsampled for `--fit-height` (`FitFrame::new`).
+fn fit_frame(cameras: &[Camera], masks: &[Image], o: &Options) -> diffsil::Result<FitFrame> {
+    FitFrame::new(cameras, masks, o.fit_height, !o.no_crop)
 }
 
-impl FitFrame {
-    /// The frame of `masks` seen by `cameras` under `o`.
-    fn of(cameras: &[Camera], masks: &[Image], o: &Options) -> diffsil::Result<FitFrame> {
-        let windows = if o.no_crop { None } else { subject_windows(masks) };
-        let (cameras, masks) = match &windows {
-            Some(windows) => (
-                cameras.iter().zip(windows).map(|(c, w)| c.cropped(*w)).collect::<diffsil::Result<Vec<_>>>()?,
-                masks.iter().zip(windows).map(|(m, w)| m.cropped(*w)).collect::<diffsil::Result<Vec<_>>>()?,
-            ),
-            None => (cameras.to_vec(), masks.to_vec()),
-        };
-        let factor = downsample_factor(&masks, o.fit_height);
-        let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<diffsil::Result<_>>()?;
-        let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<diffsil::Result<_>>()?;
-        Ok(FitFrame { cropped: windows.is_some(), factor, cameras, masks })
+/// How `frame` differs from the masks, for a progress line: e.g. "cropped to the subject,
+/// downsampled 5x"; `None` where it does not.
+fn describe(frame: &FitFrame) -> Option<String> {
+    let mut parts = Vec::new();
+    if frame.windows.is_some() {
+        parts.push("cropped to the subject".to_string());
     }
-
-    /// How the frame differs from the masks', for a progress line: e.g. "cropped to the subject,
-    /// downsampled 5x"; `None` where it does not.
-    fn describe(&self) -> Option<String> {
-        let mut parts = Vec::new();
-        if self.cropped {
-            parts.push("cropped to the subject".to_string());
-        }
-        if self.factor > 1 {
-            parts.push(format!("downsampled {}x", self.factor));
-        }
-        (!parts.is_empty()).then(|| parts.join(", "))
+    if frame.factor > 1 {
+        parts.push(format!("downsampled {}x", frame.factor));
     }
+    (!parts.is_empty()).then(|| parts.join(", "))
 }
 
 /// A renderer with `--supersample` on `--backend`.
@@ -289,8 +263,8 @@ pub fn fit_seed(
     let o = turned.as_ref().unwrap_or(o);
     // Where the subject is small in its masks the fit sees a window about it, and where it is
     // taller than `--fit-height` the masks downsampled.
-    let frame = FitFrame::of(&cameras, &targets, o)?;
-    if let (Some(how), false) = (frame.describe(), quiet) {
+    let frame = fit_frame(&cameras, &targets, o)?;
+    if let (Some(how), false) = (describe(&frame), quiet) {
         println!("fitting at {}x{} (the targets {how})", frame.cameras[0].width, frame.cameras[0].height);
     }
     let FitFrame { factor, cameras, masks: targets, .. } = frame;

@@ -10,14 +10,16 @@
 use std::path::Path;
 
 use diffsil::pose::fit::{
-    cameras_up, per_vertex_error, start_from_masks, subject_height, turned_about_vertical, upright, world_up, Fitted,
-    MaskStart, PoseFit,
+    cameras_up, per_vertex_error, start_from_masks, subject_height, turned_about_vertical, upright, world_up, FitFrame,
+    Fitted, MaskStart, PoseFit,
 };
 use diffsil::pose::skin::{Pose, SkinnedMesh};
 use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
-use super::{downsampled_nuisances, fit_with_progress, renderer_for, report, sheet, user_data, FitFrame, Options};
+use super::{
+    describe, downsampled_nuisances, fit_frame, fit_with_progress, renderer_for, report, sheet, user_data, Options,
+};
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
 /// (`fitted_pose.json`) to `out`.
@@ -34,7 +36,7 @@ pub fn save_fit(model: &SkinnedMesh, fit: &PoseFit, out: &Path) -> Result<(), Bo
 /// ([`user_data::agreement`]) at the start (the rest pose, placed) and at the end, at the masks' own
 /// resolution.
 pub struct DataOutcome {
-    /// Whether the fit saw windows about the subject (`--no-crop`, `FitFrame`).
+    /// Whether the fit saw windows about the subject (`FitFrame::windows`; `--no-crop`).
     pub cropped: bool,
     /// The factor the masks and cameras were downsampled by for the fit (`--fit-height`).
     pub factor: u32,
@@ -178,12 +180,12 @@ pub fn fit_masks(
     let mut renderer = renderer_for(o)?;
     // The fit runs in windows about a small subject, where it is about `--fit-height` pixels
     // tall; the report and the pictures are at the masks' own resolution.
-    let frame = FitFrame::of(&cameras, &targets, o)?;
+    let frame = fit_frame(&cameras, &targets, o)?;
     let tallest = frame.masks.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (frame.cameras[0].width, frame.cameras[0].height);
-    let how = frame.describe().unwrap_or_else(|| "as they are".to_string());
+    let how = describe(&frame).unwrap_or_else(|| "as they are".to_string());
     say(format!("fitting at {w}x{h} (the masks {how}; the subject {tallest} pixels tall at most)"));
-    let FitFrame { cropped, factor, cameras: fit_cameras, masks: fit_targets } = frame;
+    let FitFrame { windows, factor, cameras: fit_cameras, masks: fit_targets } = frame;
     let start = start(model, &mut renderer, (&cameras, &targets), o, quiet)?;
     let height_ratio = start.height_ratio;
     let start = start.pose;
@@ -218,7 +220,7 @@ pub fn fit_masks(
     let posed = model.posed_mesh_shaped(&fit.pose(), fit.shape())?;
     let after = renderer.render(&posed, &cameras)?.images().to_vec();
     let mut outcome = DataOutcome {
-        cropped,
+        cropped: windows.is_some(),
         factor,
         fit_size: (w, h),
         height_ratio,

@@ -80,9 +80,9 @@ impl Fitted {
 /// [`downsample_factor`](super::downsample_factor) with [`FIT_SUBJECT_HEIGHT`](super::FIT_SUBJECT_HEIGHT),
 /// [`Image::downsampled`](crate::Image::downsampled), [`Camera::downsampled`](crate::Camera::downsampled)
 /// (what that saves and gains: [`downsample_factor`](super::downsample_factor)), after cropping
-/// masks where the body is small in them to windows that frame it as it was framed there:
-/// [`subject_windows`](super::subject_windows), [`Image::cropped`](crate::Image::cropped),
-/// [`Camera::cropped`](crate::Camera::cropped). A calibrated
+/// masks where the body is small in them to windows that frame it as it was framed there
+/// ([`subject_windows`](super::subject_windows)); [`FitFrame`](super::FitFrame) does both in
+/// one call. A calibrated
 /// rig's world has its own origin and up: start the fit where
 /// [`start_from_masks`](super::start_from_masks) puts the model ([`FitOptions::initial`]), with
 /// [`FitOptions::facings`] where the subject may face any way.

@@ -260,7 +260,9 @@ pub use pass::PassReport;
 pub use placement::triangulate_masks;
 pub use polish::{PolishReport, POLISH_FIRST_RATE, POLISH_SECOND_RATE};
 pub use poses::{limb_swing_hypotheses, per_vertex_error, random_pose, stride_hypotheses, turned_about_vertical};
-pub use resolution::{downsample_factor, subject_height, subject_windows, FIT_SUBJECT_HEIGHT, SUBJECT_WINDOW_SCALE};
+pub use resolution::{
+    downsample_factor, subject_height, subject_windows, FitFrame, FIT_SUBJECT_HEIGHT, SUBJECT_WINDOW_SCALE,
+};
 pub use restart::{misfit_blocks, RestartFamily, RestartReport, RestartRun, RestartStart};
 pub use schedule::{Convergence, Progress, RunReport, Schedule, Stage, Stop};
 pub use start::{cameras_up, start_from_masks, upright, world_up, MaskStart};

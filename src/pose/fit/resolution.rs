@@ -10,7 +10,7 @@
 //! most of the image, so [`subject_windows`] gives windows that frame it that way, for
 //! [`Image::cropped`] and [`Camera::cropped`](crate::Camera::cropped).
 
-use crate::{Image, PixelRect};
+use crate::{Camera, Error, Image, PixelRect, Result};
 
 /// The subject height in pixels [`downsample_factor`] aims for by default: 64.
 pub const FIT_SUBJECT_HEIGHT: u32 = 64;
@@ -132,4 +132,65 @@ pub fn subject_windows(masks: &[Image]) -> Option<Vec<PixelRect>> {
             })
             .collect(),
     )
+}
+
+/// Where a fit of masks at a camera's resolution works: the masks and their cameras cropped to
+/// [`subject_windows`] (where those are given and `crop` is set), then downsampled together by
+/// [`downsample_factor`] for the subject `height` (0: not downsampled). Pass [`FitFrame::cameras`]
+/// and [`FitFrame::masks`] to [`fit`](super::fit); the fitted pose is in world space and renders
+/// with the original cameras at the masks' own resolution.
+///
+/// ```
+/// use diffsil::pose::fit::{FitFrame, FIT_SUBJECT_HEIGHT};
+/// use diffsil::{Camera, Image, PixelRect, Vec3};
+///
+/// // A subject 300 pixels tall in a 1920 × 1080 mask: a 375-pixel window, then 4× smaller.
+/// let mut mask = Image::filled(1920, 1080, 0.0);
+/// for row in 500..800 {
+///     mask.data_mut()[row * 1920 + 1000] = 1.0;
+/// }
+/// let camera = Camera::perspective(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 0.0), 0.6, 1920, 1080);
+/// let frame = FitFrame::new(&[camera], &[mask], FIT_SUBJECT_HEIGHT, true).unwrap();
+/// assert_eq!(frame.windows, Some(vec![PixelRect { x: 813, y: 462, width: 375, height: 375 }]));
+/// assert_eq!((frame.factor, frame.masks[0].width(), frame.cameras[0].height), (4, 93, 93));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitFrame {
+    /// The windows the masks were cropped to, one per mask; `None` where they were not.
+    pub windows: Option<Vec<PixelRect>>,
+    /// The factor they were then downsampled by (1: not at all).
+    pub factor: u32,
+    /// The cameras, cropped and downsampled.
+    pub cameras: Vec<Camera>,
+    /// The masks, cropped and downsampled.
+    pub masks: Vec<Image>,
+}
+
+impl FitFrame {
+    /// The frame of `masks` seen by `cameras` (one mask per camera, of its size).
+    ///
+    /// Errors: [`Error::ViewCountMismatch`] for a mask count other than the cameras',
+    /// [`Error::SizeMismatch`] for a mask of another size than its camera, and those of
+    /// [`Camera::cropped`] and [`Camera::downsampled`] (an orthographic camera that cannot
+    /// be).
+    pub fn new(cameras: &[Camera], masks: &[Image], height: u32, crop: bool) -> Result<FitFrame> {
+        if masks.len() != cameras.len() {
+            return Err(Error::ViewCountMismatch { what: "masks", views: cameras.len(), got: masks.len() });
+        }
+        for (camera, mask) in cameras.iter().zip(masks) {
+            mask.expect_size("mask", camera.width, camera.height)?;
+        }
+        let windows = if crop { subject_windows(masks) } else { None };
+        let (cameras, masks) = match &windows {
+            Some(windows) => (
+                cameras.iter().zip(windows).map(|(c, w)| c.cropped(*w)).collect::<Result<Vec<_>>>()?,
+                masks.iter().zip(windows).map(|(m, w)| m.cropped(*w)).collect::<Result<Vec<_>>>()?,
+            ),
+            None => (cameras.to_vec(), masks.to_vec()),
+        };
+        let factor = downsample_factor(&masks, height);
+        let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<Result<_>>()?;
+        let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<Result<_>>()?;
+        Ok(FitFrame { windows, factor, cameras, masks })
+    }
 }

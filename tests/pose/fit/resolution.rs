@@ -3,11 +3,12 @@
 //! no downsampling and no window.
 
 use diffsil::pose::fit::{
-    downsample_factor, framing_ring, subject_height, subject_windows, FIT_SUBJECT_HEIGHT, RAISED_ELEVATION_DEG,
+    downsample_factor, framing_ring, subject_height, subject_windows, FitFrame, FIT_SUBJECT_HEIGHT,
+    RAISED_ELEVATION_DEG,
 };
 use diffsil::pose::makehuman_body;
 use diffsil::pose::skin::Pose;
-use diffsil::{Image, Mesh, PixelRect, RenderSettings, Renderer};
+use diffsil::{Camera, Error, Image, Mesh, PixelRect, RenderSettings, Renderer, Vec3};
 
 /// A `width × height` mask with the rows `rows` set to `value` in column 1.
 fn mask(width: u32, height: u32, rows: std::ops::Range<usize>, value: f32) -> Image {
@@ -114,4 +115,27 @@ fn windows_frame_a_small_subject_in_every_view_alike() {
     let mut faint = masks[0].clone();
     faint.data_mut()[119 * 200 + 199] = 0.5;
     assert_eq!(subject_windows(&[faint]).unwrap()[0], windows[0]);
+}
+
+/// `FitFrame`: the windows, then the factor, applied to the masks and cameras alike; no windows
+/// when not asked for; a mask count or size other than the cameras' is an error.
+#[test]
+fn a_fit_frame_crops_then_downsamples_masks_and_cameras_alike() {
+    // A subject 160 pixels tall in 640 × 480: a 200-pixel window, downsampled 2× for 64.
+    let mask = block(640, 480, (300, 340), (100, 260));
+    let camera = Camera::perspective(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 0.0), 0.7, 640, 480);
+    let frame = FitFrame::new(&[camera], std::slice::from_ref(&mask), 64, true).unwrap();
+    let window = PixelRect { x: 220, y: 80, width: 200, height: 200 };
+    assert_eq!((frame.windows.clone(), frame.factor), (Some(vec![window]), 2));
+    assert_eq!(frame.masks[0], mask.cropped(window).unwrap().downsampled(2).unwrap());
+    assert_eq!(frame.cameras[0], camera.cropped(window).unwrap().downsampled(2).unwrap());
+    let whole = FitFrame::new(&[camera], std::slice::from_ref(&mask), 64, false).unwrap();
+    assert_eq!((whole.windows, whole.factor), (None, 2));
+    assert_eq!(whole.masks[0], mask.downsampled(2).unwrap());
+    let as_they_are = FitFrame::new(&[camera], std::slice::from_ref(&mask), 0, false).unwrap();
+    assert_eq!((as_they_are.cameras, as_they_are.masks), (vec![camera], vec![mask.clone()]));
+    let two = FitFrame::new(&[camera, camera], std::slice::from_ref(&mask), 64, true);
+    assert!(matches!(two, Err(Error::ViewCountMismatch { views: 2, got: 1, .. })), "{two:?}");
+    let other = FitFrame::new(&[camera], &[block(320, 240, (10, 20), (10, 20))], 64, true);
+    assert!(matches!(other, Err(Error::SizeMismatch { .. })), "{other:?}");
 }
