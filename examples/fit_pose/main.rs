@@ -127,6 +127,17 @@ fn fit_frame(cameras: &[Camera], masks: &[Image], o: &Options) -> diffsil::Resul
     FitFrame::new(cameras, masks, o.fit_height, !o.no_crop)
 }
 
+/// The sizes `frame`'s views are fitted at, for a progress line: "80x80", or each view's where
+/// they differ ("73x73, 96x96, …").
+fn sizes(frame: &FitFrame) -> String {
+    let sizes: Vec<String> = frame.cameras.iter().map(|c| format!("{}x{}", c.width, c.height)).collect();
+    if sizes.iter().all(|s| *s == sizes[0]) {
+        sizes[0].clone()
+    } else {
+        sizes.join(", ")
+    }
+}
+
 /// How `frame` differs from the masks, for a progress line: e.g. "cropped to the subject,
 /// downsampled 5x"; `None` where it does not.
 fn describe(frame: &FitFrame) -> Option<String> {
@@ -265,7 +276,7 @@ pub fn fit_seed(
     // taller than `--fit-height` the masks downsampled.
     let frame = fit_frame(&cameras, &targets, o)?;
     if let (Some(how), false) = (describe(&frame), quiet) {
-        println!("fitting at {}x{} (the targets {how})", frame.cameras[0].width, frame.cameras[0].height);
+        println!("fitting at {} (the targets {how})", sizes(&frame));
     }
     let FitFrame { factor, cameras, masks: targets, .. } = frame;
     let o = &downsampled_nuisances(o, factor);

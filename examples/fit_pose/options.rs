@@ -255,8 +255,8 @@ pub struct Options {
     #[arg(long, value_name = "PX", default_value_t = diffsil::pose::fit::FIT_SUBJECT_HEIGHT)]
     pub fit_height: u32,
     /// Fit the whole masks even where the subject is small in them [default: a window about the
-    /// subject in each mask, `diffsil::pose::fit::subject_windows`, where that leaves out at
-    /// least a quarter of every mask's width and height]
+    /// subject in each mask, `diffsil::pose::fit::subject_windows`, where it fits in every mask
+    /// and leaves out at least a quarter of one's width and height]
     #[arg(long)]
     pub no_crop: bool,
     /// Start `--targets` (or `--as-user-data`) from the model's rest pose where it was built,

@@ -18,7 +18,8 @@ use diffsil::{Camera, Image, Mesh, Renderer, Vec3};
 
 use super::options::{Facing, Up};
 use super::{
-    describe, downsampled_nuisances, fit_frame, fit_with_progress, renderer_for, report, sheet, user_data, Options,
+    describe, downsampled_nuisances, fit_frame, fit_with_progress, renderer_for, report, sheet, sizes, user_data,
+    Options,
 };
 
 /// Writes the fitted posed mesh (`fitted.glb`, `fitted.obj`) and pose and shape
@@ -184,7 +185,7 @@ pub fn fit_masks(
     let tallest = frame.masks.iter().map(subject_height).max().unwrap_or(0);
     let (w, h) = (frame.cameras[0].width, frame.cameras[0].height);
     let how = describe(&frame).unwrap_or_else(|| "as they are".to_string());
-    say(format!("fitting at {w}x{h} (the masks {how}; the subject {tallest} pixels tall at most)"));
+    say(format!("fitting at {} (the masks {how}; the subject {tallest} pixels tall at most)", sizes(&frame)));
     let FitFrame { windows, factor, cameras: fit_cameras, masks: fit_targets } = frame;
     let start = start(model, &mut renderer, (&cameras, &targets), o, quiet)?;
     let height_ratio = start.height_ratio;

@@ -80,9 +80,10 @@ fn subject_box(mask: &Image) -> Option<(u32, u32, u32, u32)> {
 /// Square windows of one size, one per mask, each framing its view's subject (the pixels above
 /// 0.5) as the method was tuned: the side [`SUBJECT_WINDOW_SCALE`] times the subject's largest
 /// extent over the views (width or height), centred on the subject's box and moved inside the
-/// image where it would reach beyond. `None`, to fit the masks as they are, where a window would
-/// not leave out at least a quarter of every mask's width and height (the subject already fills
-/// its frame, as in a framing rig), or where a mask shows no subject.
+/// image where it would reach beyond. `None`, to fit the masks as they are, where the window
+/// would not fit inside every mask, where it would not leave out at least a quarter of the width
+/// and of the height of any mask (the subject already fills its frames, as in a framing rig), or
+/// where a mask shows no subject.
 ///
 /// Why: the masks of the `fit_pose` example's own targets at 64 × 64, placed in larger empty
 /// images with their cameras' principal points moved to match, fit worse and slower the more
@@ -110,8 +111,9 @@ pub fn subject_windows(masks: &[Image]) -> Option<Vec<PixelRect>> {
     let boxes: Vec<(u32, u32, u32, u32)> = masks.iter().map(subject_box).collect::<Option<_>>()?;
     let extent = boxes.iter().map(|&(x0, y0, x1, y1)| (x1 - x0 + 1).max(y1 - y0 + 1)).max()?;
     let side = (extent as f64 * SUBJECT_WINDOW_SCALE).ceil() as u64;
-    let leaves_a_quarter = masks.iter().all(|m| 4 * side <= 3 * m.width().min(m.height()) as u64);
-    if !leaves_a_quarter {
+    let fits = masks.iter().all(|m| side <= m.width().min(m.height()) as u64);
+    let leaves_a_quarter = masks.iter().any(|m| 4 * side <= 3 * m.width().min(m.height()) as u64);
+    if !(fits && leaves_a_quarter) {
         return None;
     }
     let side = side as u32;

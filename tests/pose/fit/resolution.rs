@@ -106,8 +106,14 @@ fn windows_frame_a_small_subject_in_every_view_alike() {
     // A window leaving less than a quarter of a side out: none. 4 · 50 ≤ 3 · 67 but not 3 · 66.
     assert!(subject_windows(&[block(200, 67, (20, 60), (10, 26))]).is_some());
     assert_eq!(subject_windows(&[block(200, 66, (20, 60), (10, 26))]), None);
+    // Masks of other sizes: one where the window leaves a quarter out is enough, if it fits in
+    // all of them (50 ≤ 50).
     let small_mask = block(50, 66, (10, 20), (10, 20));
-    assert_eq!(subject_windows(&[block(200, 120, (20, 60), (50, 66)), small_mask]), None, "one mask small");
+    let mixed = subject_windows(&[block(200, 120, (20, 60), (50, 66)), small_mask.clone()]).unwrap();
+    assert_eq!(mixed[1], PixelRect { x: 0, y: 0, width: 50, height: 50 }, "one mask small: {mixed:?}");
+    let too_small = block(49, 66, (10, 20), (10, 20));
+    assert_eq!(subject_windows(&[block(200, 120, (20, 60), (50, 66)), too_small]), None, "the window does not fit");
+    assert_eq!(subject_windows(&[block(60, 60, (20, 60), (10, 26)), small_mask]), None, "none leaves a quarter");
     // No subject in a view, or no masks: none.
     assert_eq!(subject_windows(&[masks[0].clone(), Image::filled(200, 120, 0.0)]), None);
     assert_eq!(subject_windows(&[]), None);
