@@ -81,8 +81,8 @@ fn subject_box(mask: &Image) -> Option<(u32, u32, u32, u32)> {
 /// 0.5) as the method was tuned: the side [`SUBJECT_WINDOW_SCALE`] times the subject's largest
 /// extent over the views (width or height), centred on the subject's box and moved inside the
 /// image where it would reach beyond. `None`, to fit the masks as they are, where the window
-/// would not fit inside every mask, where it would not leave out at least a quarter of the width
-/// and of the height of any mask (the subject already fills its frames, as in a framing rig), or
+/// would not fit inside every mask, where it would leave out less than a quarter of the width or
+/// of the height of every mask (the subject already fills its frames, as in a framing rig), or
 /// where a mask shows no subject.
 ///
 /// Why: the masks of the `fit_pose` example's own targets at 64 × 64, placed in larger empty
@@ -104,7 +104,8 @@ fn subject_box(mask: &Image) -> Option<(u32, u32, u32, u32)> {
 /// }
 /// let windows = subject_windows(&[mask.clone()]).unwrap();
 /// assert_eq!(windows, vec![PixelRect { x: 280, y: 95, width: 50, height: 50 }]);
-/// // Framed already (a 40-pixel subject in 48 × 48): nothing to crop.
+/// // Framed already (a 40-pixel subject in 48 × 48, where a 50-pixel window does not fit):
+/// // nothing to crop.
 /// assert_eq!(subject_windows(&[mask.cropped(PixelRect { x: 281, y: 96, width: 48, height: 48 }).unwrap()]), None);
 /// ```
 pub fn subject_windows(masks: &[Image]) -> Option<Vec<PixelRect>> {
