@@ -288,7 +288,8 @@ impl Camera {
     /// pixels: it projects every point where this one does, less `(rect.x, rect.y)`, so it goes
     /// with [`Image::cropped`](crate::Image::cropped) targets. A perspective camera becomes the
     /// equivalent pinhole with its principal point moved (by whole pixels: exact in f32 below
-    /// 2²⁴); pose, near and far are kept.
+    /// 2²⁴), except for a centred band of full height, which keeps the projection as it is; pose,
+    /// near and far are kept.
     ///
     /// ```
     /// use diffsil::{Camera, PixelRect, Vec3};
