@@ -259,7 +259,7 @@ pub fn fit_seed(
         let data = UserData { cameras: own.cameras, targets: own.targets, names, truth: Some(own.truth_vertices) };
         let (outcome, fitted) = fit_masks(model, o, data, quiet || !pictures)?;
         let error_m = outcome.error_m.ok_or("the fit reported no error against the truth")?;
-        let mean_iou = outcome.after.iter().map(|a| a.0).sum::<f64>() / outcome.after.len().max(1) as f64;
+        let mean_iou = user_data::mean_iou(&outcome.after);
         return Ok(Outcome::of(&fitted, (error_m, mean_iou), height_m, outcome.seconds));
     }
     let OwnTargets { truth_vertices, rest_mesh, cameras, targets, .. } = own;
@@ -312,13 +312,13 @@ pub fn fit_seed(
     }
     let error_m = per_vertex_error(&fit.vertices()?, &truth_vertices);
     let after = fit.render()?;
-    let ious: Vec<f64> = after.iter().zip(&targets).map(|(a, t)| user_data::agreement(a, t).0).collect();
+    let agreements: Vec<(f64, f64)> = after.iter().zip(&targets).map(|(a, t)| user_data::agreement(a, t)).collect();
     if !quiet {
-        let views: Vec<String> = ious.iter().map(|iou| format!("{iou:.3}")).collect();
+        let views: Vec<String> = agreements.iter().map(|(iou, _)| format!("{iou:.3}")).collect();
         println!("silhouette IoU per view: {}", views.join(", "));
     }
     let height_m = largest_extent(&rest_mesh);
-    let mean_iou = ious.iter().sum::<f64>() / ious.len().max(1) as f64;
+    let mean_iou = user_data::mean_iou(&agreements);
     if !quiet && error_m > 0.02 * height_m && mean_iou >= 0.95 {
         println!(
             "note: the silhouettes match (mean IoU {mean_iou:.3}) while the vertices are {:.1} mm off: what differs \
@@ -384,11 +384,10 @@ pub fn run(o: &Options) -> Result<(), Box<dyn std::error::Error>> {
     }
     if !o.targets.is_empty() {
         let outcome = fit_user_data(&model, o)?;
-        let mean = |v: &[(f64, f64)]| v.iter().map(|x| x.0).sum::<f64>() / v.len() as f64;
         println!(
             "final: mean_iou_before={:.3} mean_iou_after={:.3} energy={:.3e} iterations={} seconds={:.3}{} model={name}",
-            mean(&outcome.before),
-            mean(&outcome.after),
+            user_data::mean_iou(&outcome.before),
+            user_data::mean_iou(&outcome.after),
             outcome.energy,
             outcome.steps,
             outcome.seconds,

@@ -202,6 +202,11 @@ pub fn looks_inverted(mask: &Image) -> bool {
     2 * covered > all
 }
 
+/// The mean IoU of per-view [`agreement`]s (0 for none).
+pub fn mean_iou(agreements: &[(f64, f64)]) -> f64 {
+    agreements.iter().map(|a| a.0).sum::<f64>() / agreements.len().max(1) as f64
+}
+
 /// How a rendered silhouette agrees with its target: the IoU of the two masks thresholded at
 /// 0.5 (1 when both are empty) and the mean squared difference over the pixels (E_sl of one
 /// view, unblurred).

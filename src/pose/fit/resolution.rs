@@ -18,12 +18,7 @@ pub const FIT_SUBJECT_HEIGHT: u32 = 64;
 /// The height in pixels of the subject in `mask`: the rows from the first to the last holding a
 /// pixel above 0.5, 0 when none does.
 pub fn subject_height(mask: &Image) -> u32 {
-    let occupied = |row: &[f32]| row.iter().any(|v| *v > 0.5);
-    let rows: Vec<&[f32]> = mask.data().chunks(mask.width().max(1) as usize).collect();
-    match (rows.iter().position(|r| occupied(r)), rows.iter().rposition(|r| occupied(r))) {
-        (Some(first), Some(last)) => (last - first + 1) as u32,
-        _ => 0,
-    }
+    subject_box(mask).map_or(0, |(_, y0, _, y1)| y1 - y0 + 1)
 }
 
 /// The largest whole factor by which `masks` (and their cameras) can be downsampled keeping the
@@ -184,14 +179,16 @@ impl FitFrame {
             mask.expect_size("mask", camera.width, camera.height)?;
         }
         let windows = if crop { subject_windows(masks) } else { None };
-        let (cameras, masks) = match &windows {
-            Some(windows) => (
+        // The crops where there are windows; the masks themselves (not copied) where not.
+        let cropped = match &windows {
+            Some(windows) => Some((
                 cameras.iter().zip(windows).map(|(c, w)| c.cropped(*w)).collect::<Result<Vec<_>>>()?,
                 masks.iter().zip(windows).map(|(m, w)| m.cropped(*w)).collect::<Result<Vec<_>>>()?,
-            ),
-            None => (cameras.to_vec(), masks.to_vec()),
+            )),
+            None => None,
         };
-        let factor = downsample_factor(&masks, height);
+        let (cameras, masks) = cropped.as_ref().map_or((cameras, masks), |(c, m)| (c.as_slice(), m.as_slice()));
+        let factor = downsample_factor(masks, height);
         let cameras = cameras.iter().map(|c| c.downsampled(factor)).collect::<Result<_>>()?;
         let masks = masks.iter().map(|m| m.downsampled(factor)).collect::<Result<_>>()?;
         Ok(FitFrame { windows, factor, cameras, masks })
