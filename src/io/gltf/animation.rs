@@ -20,10 +20,9 @@ use crate::{Error, Result};
 /// [`load_gltf`](super::load_gltf) returns for the same file (the skin of the node holding the
 /// first triangle mesh; the clips' joint indices are that skeleton's).
 ///
-/// Rotation and translation channels on the skin's joints are kept with their interpolation
-/// (`STEP`, `LINEAR`, `CUBICSPLINE`); scale channels on joints are skipped and counted in
-/// [`Animation::ignored_scale_channels`]; channels on other nodes and morph-weight channels are
-/// skipped and counted in [`Animation::ignored_other_channels`]. A clip keeps its place (and
+/// Rotation, translation and scale channels on the skin's joints are kept with their
+/// interpolation (`STEP`, `LINEAR`, `CUBICSPLINE`); channels on other nodes and morph-weight
+/// channels are skipped and counted in [`Animation::ignored_other_channels`]. A clip keeps its place (and
 /// name) even when all its channels are skipped. Errors: [`Error::Io`], and [`Error::Format`]
 /// when the file has no skinned mesh or an animation is malformed (times not increasing or not
 /// finite, value counts that do not match the keys, unsupported accessor types).
@@ -138,7 +137,6 @@ fn read_animation(
         channels: Vec::new(),
         nodes: nodes.to_vec(),
         duration: 0.0,
-        ignored_scale_channels: 0,
         ignored_other_channels: 0,
     };
     for channel in animation.channels() {
@@ -151,10 +149,7 @@ fn read_animation(
         let (property, dimensions) = match target.property() {
             GltfProperty::Rotation => (Property::Rotation, Dimensions::Vec4),
             GltfProperty::Translation => (Property::Translation, Dimensions::Vec3),
-            GltfProperty::Scale => {
-                clip.ignored_scale_channels += 1;
-                continue;
-            }
+            GltfProperty::Scale => (Property::Scale, Dimensions::Vec3),
             GltfProperty::MorphTargetWeights => {
                 clip.ignored_other_channels += 1;
                 continue;

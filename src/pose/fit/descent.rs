@@ -122,9 +122,12 @@ pub struct PoseFit {
     prior_scale: f32,
     /// Weight `ν` of the shape prior.
     shape_prior: f32,
-    /// How many of `params` are the pose's (`3J + 6`, or `6J + 6` with joint translations); the
-    /// shape coefficients follow.
+    /// How many of `params` are the pose's (`3J + 6`, `6J + 6` with joint translations, `9J + 6`
+    /// with joint scale factors: [`Pose::to_params`]); the shape coefficients follow.
     pose_len: usize,
+    /// Whether the initial pose had joint translations (then they are fitted with the joints; a
+    /// pose with scale factors alone has zero translations in its parameters, which stay zero).
+    fits_joint_translations: bool,
     /// The shape a restart goes back to.
     initial_shape: Vec<f32>,
     /// Which parameters the steps may change ([`PoseFit::set_free`]): joint offsets, global
@@ -185,6 +188,11 @@ impl PoseFit {
     /// another size than its camera's ([`Error::SizeMismatch`]), a target pixel outside [0, 1] or
     /// a non-finite setting ([`Error::InvalidSettings`]), an invalid camera, initial pose or shape.
     ///
+    /// The parameters fitted are the initial pose's: its joint translations, where it has them,
+    /// are fitted with the joints' rotations; its joint scale factors ([`Pose::joint_scales`],
+    /// e.g. of an animation's frame) are kept as they are, since a silhouette would rather
+    /// thin a bone than turn it.
+    ///
     /// ```
     /// use diffsil::pose::fit::{framing_cameras, FitSettings, PoseFit};
     /// use diffsil::pose::figure::builtin_figure;
@@ -218,10 +226,12 @@ impl PoseFit {
         let pixels: f64 = targets.iter().map(|t| f64::from(t.width()) * f64::from(t.height())).sum();
         let mut params = initial.to_params();
         let pose_len = params.len();
+        let fits_joint_translations = initial.has_joint_translations();
         params.extend_from_slice(&initial_shape);
         Ok(PoseFit {
             params,
             pose_len,
+            fits_joint_translations,
             initial_shape,
             shape_prior: 0.0,
             model,
@@ -509,6 +519,14 @@ impl PoseFit {
         }
         if !self.free.global {
             frozen.push(joints..joints + 6);
+        }
+        if self.pose_len == Pose::parameter_count_with_scales(self.model.joint_count()) {
+            // The initial pose's scale factors, and the zero translations beside them where it
+            // had none, are kept (see `PoseFit::new`).
+            frozen.push(2 * joints + 6..self.pose_len);
+            if !self.fits_joint_translations {
+                frozen.push(joints + 6..2 * joints + 6);
+            }
         }
         if !self.free.shape {
             frozen.push(self.pose_len..self.params.len());

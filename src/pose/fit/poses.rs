@@ -17,6 +17,7 @@ pub fn random_pose(limits: &[f32], max_yaw: f32, seed: u64) -> Pose {
     Pose {
         joint_rotations,
         joint_translations: Vec::new(),
+        joint_scales: Vec::new(),
         orientation: Vec3::new(0.0, rng.range(-max_yaw, max_yaw), 0.0),
         translation: Vec3::ZERO,
     }

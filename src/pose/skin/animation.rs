@@ -1,5 +1,5 @@
-//! Skeletal animation clips (glTF animations): keyframed joint rotations and translations, sampled
-//! at a time into a [`Pose`] relative to the skeleton's rest.
+//! Skeletal animation clips (glTF animations): keyframed joint rotations, translations and
+//! scales, sampled at a time into a [`Pose`] relative to the skeleton's rest.
 
 use glam::{DQuat, DVec3, Mat4};
 
@@ -11,7 +11,7 @@ use crate::{Error, Result};
 pub enum Interpolation {
     /// The value of the last key at or before the time, held until the next key.
     Step,
-    /// Linear for translations, spherical-linear (shortest path) for rotations.
+    /// Linear for translations and scales, spherical-linear (shortest path) for rotations.
     Linear,
     /// Cubic Hermite spline with per-key in- and out-tangents (scaled by the key interval);
     /// rotations are normalised after the spline.
@@ -25,6 +25,8 @@ pub enum Property {
     Rotation,
     /// The joint node's translation (`[x, y, z]` keys).
     Translation,
+    /// The joint node's scale (`[x, y, z]` keys).
+    Scale,
 }
 
 /// One animated property of one joint.
@@ -32,13 +34,13 @@ pub enum Property {
 pub struct Channel {
     /// The skeleton joint it moves.
     pub joint: usize,
-    /// Rotation or translation.
+    /// Rotation, translation or scale.
     pub property: Property,
     /// Interpolation between keys.
     pub interpolation: Interpolation,
     /// Key times in seconds, strictly increasing.
     pub times: Vec<f32>,
-    /// Key values, 4 components (rotation) or 3 (translation, the 4th ignored) each. For
+    /// Key values, 4 components (rotation) or 3 (translation, scale: the 4th ignored) each. For
     /// [`Interpolation::CubicSpline`] three entries per key: in-tangent, value, out-tangent.
     pub values: Vec<[f32; 4]>,
 }
@@ -62,8 +64,14 @@ pub struct AnimatedNode {
 ///
 /// - rotation offset `θ_j = axis–angle(q_restⱼ⁻¹ · q')`, so that `R(q_rest)·R(θ_j) = R(q')`;
 /// - translation offset `τ_j = t' − t_restⱼ` (only when the clip has translation channels);
-/// - scale: **not supported** — the rest scale is kept; scale channels are skipped when loading
-///   and counted in [`Animation::ignored_scale_channels`].
+/// - scale factor `σ_j = s' ⊘ s_restⱼ`, component by component, so that `S(s_restⱼ ⊙ σ_j) =
+///   S(s')` (only when the clip has scale channels; a rest scale component of 0 gives the factor
+///   1 where `s'` is 0 there too, and an error otherwise).
+///
+/// Writing `above · T(t)·R(q)·S(s)` as `T(t')·R(q')·S(s')` is exact where the non-joint
+/// transforms `above` are the identity (as in most rigs) or scale uniformly; a non-uniform scale
+/// in `above` over a rotated joint makes a sheared transform, of which glam's decomposition keeps
+/// the nearest `T·R·S`.
 ///
 /// The global orientation and translation of the pose stay zero; a translated root joint moves
 /// through its `τ`.
@@ -77,8 +85,6 @@ pub struct Animation {
     pub nodes: Vec<AnimatedNode>,
     /// Duration in seconds: the last key time over all channels.
     pub duration: f32,
-    /// Scale channels on joints, skipped (scale is not part of a [`Pose`]).
-    pub ignored_scale_channels: usize,
     /// Channels skipped because they target a node that is not a joint of the skin, or morph
     /// weights.
     pub ignored_other_channels: usize,
@@ -136,7 +142,9 @@ impl Channel {
         let (a, b) = (self.value(k), self.value(k + 1));
         match (self.interpolation, self.property) {
             (Interpolation::Step, _) => a,
-            (Interpolation::Linear, Property::Translation) => std::array::from_fn(|c| a[c] + s * (b[c] - a[c])),
+            (Interpolation::Linear, Property::Translation | Property::Scale) => {
+                std::array::from_fn(|c| a[c] + s * (b[c] - a[c]))
+            }
             (Interpolation::Linear, Property::Rotation) => {
                 let q = |v: [f64; 4]| DQuat::from_array(v).normalize();
                 q(a).slerp(q(b), s).to_array()
@@ -150,7 +158,7 @@ impl Channel {
                     std::array::from_fn(|c| h[0] * a[c] + h[1] * out_tangent[c] + h[2] * b[c] + h[3] * in_tangent[c]);
                 match property {
                     Property::Rotation => DQuat::from_array(v).normalize().to_array(),
-                    Property::Translation => v,
+                    Property::Translation | Property::Scale => v,
                 }
             }
         }
@@ -188,6 +196,11 @@ impl Animation {
         self.channels.iter().any(|c| c.property == Property::Translation)
     }
 
+    /// Whether any channel scales a joint (then sampled poses carry [`Pose::joint_scales`]).
+    pub fn has_scales(&self) -> bool {
+        self.channels.iter().any(|c| c.property == Property::Scale)
+    }
+
     /// The pose at `time` seconds (clamped to the clip), relative to the rest of `skeleton` (the
     /// skeleton the clip was loaded with); see the type's docs for the definition.
     pub fn sample(&self, skeleton: &Skeleton, time: f32) -> Result<Pose> {
@@ -199,31 +212,36 @@ impl Animation {
         let n = skeleton.joint_count();
         let mut translation: Vec<Option<DVec3>> = vec![None; n];
         let mut rotation: Vec<Option<DQuat>> = vec![None; n];
+        let mut scale: Vec<Option<DVec3>> = vec![None; n];
         for channel in &self.channels {
             let v = channel.sample(time as f64);
             match channel.property {
                 Property::Rotation => rotation[channel.joint] = Some(DQuat::from_array(v).normalize()),
                 Property::Translation => translation[channel.joint] = Some(DVec3::new(v[0], v[1], v[2])),
+                Property::Scale => scale[channel.joint] = Some(DVec3::new(v[0], v[1], v[2])),
             }
         }
         let mut pose = Pose::rest(n);
         if self.has_translations() {
             pose = pose.with_joint_translations();
         }
+        if self.has_scales() {
+            pose = pose.with_joint_scales();
+        }
         for j in 0..n {
-            if rotation[j].is_none() && translation[j].is_none() {
+            if rotation[j].is_none() && translation[j].is_none() && scale[j].is_none() {
                 continue;
             }
             let node = &self.nodes[j];
             let t = translation[j].unwrap_or(node.node_rest.translation.as_dvec3());
             let q = rotation[j].unwrap_or(node.node_rest.rotation.as_dquat().normalize());
-            let (t, q) = if node.above == Mat4::IDENTITY {
-                (t, q)
+            let s = scale[j].unwrap_or(node.node_rest.scale.as_dvec3());
+            let (t, q, s) = if node.above == Mat4::IDENTITY {
+                (t, q, s)
             } else {
-                let local = node.above.as_dmat4()
-                    * glam::DMat4::from_scale_rotation_translation(node.node_rest.scale.as_dvec3(), q, t);
-                let (_, q, t) = local.to_scale_rotation_translation();
-                (t, q.normalize())
+                let local = node.above.as_dmat4() * glam::DMat4::from_scale_rotation_translation(s, q, t);
+                let (s, q, t) = local.to_scale_rotation_translation();
+                (t, q.normalize(), s)
             };
             let rest = &skeleton.rest[j];
             let offset = rest.rotation.as_dquat().normalize().inverse() * q;
@@ -231,10 +249,32 @@ impl Animation {
             if pose.has_joint_translations() {
                 pose.joint_translations[j] = (t - rest.translation.as_dvec3()).as_vec3();
             }
+            if pose.has_joint_scales() {
+                pose.joint_scales[j] = self.scale_factor(j, s, rest.scale.as_dvec3())?;
+            }
         }
         // A degenerate spline key could normalise to NaN: never return it.
         pose.validate(n)?;
         Ok(pose)
+    }
+
+    /// The factor `σ = s ⊘ rest` of joint `j` (1 where both components are 0; an error where only
+    /// the rest's is).
+    fn scale_factor(&self, j: usize, s: DVec3, rest: DVec3) -> Result<glam::Vec3> {
+        let factor = |s: f64, r: f64| -> Result<f64> {
+            if r != 0.0 {
+                Ok(s / r)
+            } else if s == 0.0 {
+                Ok(1.0)
+            } else {
+                Err(Error::InvalidSettings(format!(
+                    "animation `{}`: joint {j} has a rest scale component of 0, which its animated scale {s} \
+                     cannot be expressed as a factor of",
+                    self.name
+                )))
+            }
+        };
+        Ok(glam::Vec3::new(factor(s.x, rest.x)? as f32, factor(s.y, rest.y)? as f32, factor(s.z, rest.z)? as f32))
     }
 
     /// `count` poses evenly spaced over the clip, from time 0 to [`Animation::duration`].

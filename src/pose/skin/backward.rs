@@ -1,11 +1,12 @@
 //! The analytic backward of linear-blend skinning: from vertex gradients to the pose (joint
-//! rotations and translations, global orientation and translation) and to the shape `β`.
+//! rotations, translations and scale factors, global orientation and translation) and to the
+//! shape `β`.
 
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use rayon::prelude::*;
 
 use super::lbs::{SkinCache, BLOCK};
-use super::rodrigues::rodrigues_derivative_f64;
+use super::rodrigues::{rodrigues_derivative_f64, rodrigues_f64};
 use super::{Pose, SkinnedMesh};
 use crate::{Error, Result};
 
@@ -36,8 +37,8 @@ impl SkinnedMesh {
     /// The gradient of a loss with respect to the pose, given its gradient `d_vertices` with
     /// respect to the posed vertices of the forward pass that produced `cache`. The returned
     /// [`Pose`] holds `∂L/∂θ_j`, `∂L/∂orientation`, `∂L/∂translation` and, when the pose of the
-    /// forward pass has joint translations, `∂L/∂τ_j`; flatten it with [`Pose::to_params`] for an
-    /// optimiser. [`SkinnedMesh::backward_with_shape`] also gives `∂L/∂β`.
+    /// forward pass has joint translations, `∂L/∂τ_j`, and when it has joint scale factors,
+    /// `∂L/∂σ_j`; flatten it with [`Pose::to_params`] for an optimiser. [`SkinnedMesh::backward_with_shape`] also gives `∂L/∂β`.
     ///
     /// Chain: `∂L/∂M_j = Σ_i w_ij (∂L/∂v_i)·[v̂_i, 1]ᵀ` (summed in f64, in fixed-size blocks of
     /// vertices added in a fixed order, so the result is deterministic), `∂L/∂G_j = ∂L/∂M_j ·
@@ -91,6 +92,8 @@ impl SkinnedMesh {
         let mut d_world = DMat4::ZERO;
         let mut d_rotations = vec![Vec3::ZERO; joint_count];
         let mut d_local_translation = vec![DVec3::ZERO; joint_count];
+        let with_scales = cache.pose.has_joint_scales();
+        let mut d_scales = vec![Vec3::ZERO; if with_scales { joint_count } else { 0 }];
         for j in (0..joint_count).rev() {
             let dg = d_global[j];
             let d_local = match self.skeleton.parents[j] {
@@ -107,8 +110,16 @@ impl SkinnedMesh {
             // local = T(t)·X with X free of translation, so ∂L/∂t is ∂L/∂local's last column.
             d_local_translation[j] = d_local.w_axis.truncate();
             let d_r = DMat3::from_mat4(state.rest_a[j].transpose() * d_local * state.rest_b[j].transpose());
-            let d_rodrigues = rodrigues_derivative_f64(cache.pose.joint_rotations[j].as_dvec3());
+            let theta = cache.pose.joint_rotations[j].as_dvec3();
+            let d_rodrigues = rodrigues_derivative_f64(theta);
             d_rotations[j] = DVec3::from_array(d_rodrigues.map(|m| frobenius(&d_r, &m))).as_vec3();
+            if with_scales {
+                // local = (A·R(θ))·S(s ⊙ σ): ∂L/∂S = (A·R(θ))ᵀ ∂L/∂local, and ∂L/∂σ_c = s_c·(∂L/∂S)_cc.
+                let ar = state.rest_a[j] * DMat4::from_mat3(rodrigues_f64(theta));
+                let d_s = ar.transpose() * d_local;
+                let s = self.skeleton.rest[j].scale.as_dvec3();
+                d_scales[j] = (DVec3::new(d_s.x_axis.x, d_s.y_axis.y, d_s.z_axis.z) * s).as_vec3();
+            }
         }
         let d_orientation = rodrigues_derivative_f64(cache.pose.orientation.as_dvec3())
             .map(|m| frobenius(&DMat3::from_mat4(d_world), &m));
@@ -119,6 +130,7 @@ impl SkinnedMesh {
             } else {
                 Vec::new()
             },
+            joint_scales: d_scales,
             orientation: DVec3::from_array(d_orientation).as_vec3(),
             translation: d_world.w_axis.truncate().as_vec3(),
         };

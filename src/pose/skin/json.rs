@@ -20,6 +20,7 @@ impl Pose {
     /// {"format": "diffsil-pose-1",
     ///  "joint_rotations": [[x, y, z], …],      axis–angle per joint, radians
     ///  "joint_translations": [[x, y, z], …],   only when the pose has them
+    ///  "joint_scales": [[x, y, z], …],         only when the pose has them
     ///  "orientation": [x, y, z], "translation": [x, y, z],
     ///  "betas": [β_0, …]}                      shape coefficients (may be empty)
     /// ```
@@ -36,6 +37,10 @@ impl Pose {
             if self.has_joint_translations() {
                 let list: Vec<Value> = self.joint_translations.iter().map(|&t| vec3(t)).collect();
                 map.insert("joint_translations".into(), Value::from(list));
+            }
+            if self.has_joint_scales() {
+                let list: Vec<Value> = self.joint_scales.iter().map(|&s| vec3(s)).collect();
+                map.insert("joint_scales".into(), Value::from(list));
             }
             map.insert("orientation".into(), vec3(self.orientation));
             map.insert("translation".into(), vec3(self.translation));
@@ -83,6 +88,10 @@ impl Pose {
             joint_translations: list("joint_translations", false)?
                 .iter()
                 .map(|v| triple(v, "joint_translations"))
+                .collect::<Result<_>>()?,
+            joint_scales: list("joint_scales", false)?
+                .iter()
+                .map(|v| triple(v, "joint_scales"))
                 .collect::<Result<_>>()?,
             orientation: triple(field("orientation")?, "orientation")?,
             translation: triple(field("translation")?, "translation")?,

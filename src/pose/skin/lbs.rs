@@ -23,7 +23,7 @@ pub(super) struct JointState {
     pub(super) world: DMat4,
     /// Per joint, `A_j = T(t_j + τ_j + s_j(β))·R(q_j)`.
     pub(super) rest_a: Vec<DMat4>,
-    /// Per joint, `B_j = S(s_j)`.
+    /// Per joint, `B_j = S(s_j ⊙ σ_j)` (`σ_j` the pose's scale factor, ones when it has none).
     pub(super) rest_b: Vec<DMat4>,
     /// Per joint, `local_j = A_j · R(θ_j) · B_j`.
     pub(super) local: Vec<DMat4>,
@@ -46,7 +46,11 @@ impl JointState {
             global: Vec::with_capacity(n),
         };
         for j in 0..n {
-            let (mut a, b) = skeleton.rest[j].factors();
+            let (mut a, mut b) = skeleton.rest[j].factors();
+            let scale = pose.joint_scale(j);
+            if scale != Vec3::ONE {
+                b = DMat4::from_scale(skeleton.rest[j].scale.as_dvec3() * scale.as_dvec3());
+            }
             let moved = pose.joint_translation(j).as_dvec3() + shift.get(j).copied().unwrap_or(DVec3::ZERO);
             if moved != DVec3::ZERO {
                 a = DMat4::from_translation(moved) * a;

@@ -148,6 +148,28 @@ fn energy_is_zero_at_the_truth_and_blur_is_validated() {
 }
 
 #[test]
+fn an_initial_poses_scale_factors_are_kept_and_its_rotations_fitted() {
+    // The truth with a joint scaled (as an animation's frame may be): silhouettes of that, and a
+    // fit started from the truth's scales with the rotations at rest.
+    let (model, mut truth, cameras, _, mut renderer) = truth_in_two_views();
+    truth = truth.with_joint_scales();
+    truth.joint_scales[3] = Vec3::new(1.2, 0.8, 1.0);
+    let targets = renderer.render(&model.posed_mesh(&truth).unwrap(), &cameras).unwrap().images().to_vec();
+    let initial = Pose { joint_rotations: vec![Vec3::ZERO; model.joint_count()], ..truth.clone() };
+    let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, settings(&initial, 0.02)).unwrap();
+    let before = fit.energy().unwrap();
+    for _ in 0..5 {
+        fit.step().unwrap();
+    }
+    let pose = fit.pose();
+    assert_eq!(pose.joint_scales, truth.joint_scales, "the scale factors stay the initial pose's");
+    assert_eq!(pose.joint_translations, vec![Vec3::ZERO; model.joint_count()], "no translations were asked for");
+    assert_ne!(pose.joint_rotations, initial.joint_rotations);
+    assert!(fit.energy().unwrap() < before);
+    assert!(fit.restart(&initial).is_ok(), "a restart keeps the layout");
+}
+
+#[test]
 fn the_pose_prior_adds_to_the_energy_and_pulls_offsets_to_rest() {
     let (model, truth, cameras, targets, renderer) = truth_in_two_views();
     let mut fit = PoseFit::new(model.clone(), cameras, targets, renderer, settings(&truth, 0.01)).unwrap();

@@ -1,5 +1,6 @@
 //! glTF animations: a tiny hand-written clip per interpolation mode, sampled between keys against
-//! hand-computed values, and CesiumMan's walk (ignored asset test).
+//! hand-computed values, scale channels on joints with a non-unit rest scale, and CesiumMan's
+//! walk (ignored asset test).
 
 use diffsil::io::gltf::load_animations;
 use diffsil::pose::skin::{Animation, Interpolation, Pose, Property};
@@ -18,7 +19,8 @@ fn quat(q: Quat) -> [f32; 4] {
 /// (0, 1, 0) and rest rotation 0.3 rad about z), skinning one triangle (mesh node 0). Four clips:
 /// `step` and `linear` (child rotation about x from 0.2 to 1.0 rad over [0, 2] s; `linear` also
 /// moves the root from (0, 1, 0) to (2, 1, 0)), `cubic` (root translation and child rotation as
-/// cubic splines over [0, 2] s), and `ignored` (a scale channel and a channel on the mesh node).
+/// cubic splines over [0, 2] s), and an unnamed one (a linear scale channel on the child, from 1
+/// to 2 over [0, 2] s, and a channel on the mesh node, which is skipped).
 fn animated_doc(doc: &mut Doc) -> String {
     let pos = doc.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
     let j = doc.joints(&[[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0]]);
@@ -99,7 +101,7 @@ fn assert_vec3(a: Vec3, b: Vec3, label: &str) {
 }
 
 #[test]
-fn clips_load_with_names_modes_and_ignored_channels() {
+fn clips_load_with_names_modes_and_skipped_channels() {
     let (s, clips) = load();
     let names: Vec<&str> = clips.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["step", "linear", "cubic", "animation_3"]);
@@ -110,11 +112,18 @@ fn clips_load_with_names_modes_and_ignored_channels() {
     );
     assert_eq!(clips[2].channels[0].values.len(), 6, "cubic splines keep in / value / out per key");
     assert!(clips.iter().all(|c| c.duration == 2.0 || c.channels.is_empty()));
-    assert_eq!((clips[3].ignored_scale_channels, clips[3].ignored_other_channels), (1, 1));
-    assert!(clips[3].channels.is_empty());
+    assert_eq!(clips[3].ignored_other_channels, 1);
+    assert_eq!(clips[3].channels.iter().map(|c| (c.joint, c.property)).collect::<Vec<_>>(), [(1, Property::Scale)]);
     assert!(!clips[0].has_translations() && clips[1].has_translations());
+    assert!(!clips[1].has_scales() && clips[3].has_scales());
+    // Scaled halfway (1.5 at t = 1), rotated and moved not at all.
+    let pose = clips[3].sample(&s.skeleton, 1.0).unwrap();
+    assert_eq!(pose.joint_scales, [Vec3::ONE, Vec3::splat(1.5)]);
+    assert_eq!(pose.joint_rotations, [Vec3::ZERO; 2]);
+    assert!(pose.joint_translations.is_empty());
     // A clip with no channels samples to the rest pose.
-    assert_eq!(clips[3].sample(&s.skeleton, 1.0).unwrap(), Pose::rest(2));
+    let empty = Animation { channels: Vec::new(), ..clips[3].clone() };
+    assert_eq!(empty.sample(&s.skeleton, 1.0).unwrap(), Pose::rest(2));
 }
 
 #[test]
@@ -158,6 +167,115 @@ fn cubic_spline_follows_the_hermite_formula() {
     assert_vec3(pose.joint_translations[0], expected - Vec3::Y, "root translation at s = 0.25");
 }
 
+/// Two joints with non-unit rest scales: `root` (node 1, scale (2, 1, 0.5)) and `child` (node 2,
+/// translation (0, 1, 0), scale (1, 3, 1)), skinning one triangle. Two clips: `scales`, the
+/// root's scale linear from (2, 1, 0.5) to (4, 1, 1) over [0, 2] s and the child's by steps
+/// from (1, 3, 1) to (2, 6, 3); `cubic_scale`, the child's as a cubic spline from (1, 3, 1) to
+/// (1, 6, 1) with out-tangent (0, 2, 0) at the first key and in-tangent (0, 4, 0) at the second.
+fn scaled_doc(doc: &mut Doc) -> String {
+    let pos = doc.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
+    let j = doc.joints(&[[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0]]);
+    let w = doc.weights(&[[1.0, 0.0, 0.0, 0.0]; 3]);
+    let root = Mat4::from_scale(Vec3::new(2.0, 1.0, 0.5));
+    let child = root * Mat4::from_scale_rotation_translation(Vec3::new(1.0, 3.0, 1.0), Quat::IDENTITY, Vec3::Y);
+    let ibm = doc.matrices(&[root.inverse(), child.inverse()]);
+    let times = floats(doc, &[0.0, 2.0], "SCALAR", 2);
+    let root_scales = floats(doc, &[2.0, 1.0, 0.5, 4.0, 1.0, 1.0], "VEC3", 2);
+    let child_steps = floats(doc, &[1.0, 3.0, 1.0, 2.0, 6.0, 3.0], "VEC3", 2);
+    // Cubic: [in0, v0, out0, in1, v1, out1].
+    let child_cubic = floats(
+        doc,
+        &[0.0, 0.0, 0.0, 1.0, 3.0, 1.0, 0.0, 2.0, 0.0, 0.0, 4.0, 0.0, 1.0, 6.0, 1.0, 0.0, 0.0, 0.0],
+        "VEC3",
+        6,
+    );
+    format!(
+        r#""scene":0,"scenes":[{{"nodes":[0,1]}}],
+        "nodes":[
+          {{"name":"mesh","mesh":0,"skin":0}},
+          {{"name":"root","scale":[2,1,0.5],"children":[2]}},
+          {{"name":"child","translation":[0,1,0],"scale":[1,3,1]}}
+        ],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{pos},"JOINTS_0":{j},"WEIGHTS_0":{w}}}}}]}}],
+        "skins":[{{"joints":[1,2],"inverseBindMatrices":{ibm}}}],
+        "animations":[
+          {{"name":"scales","samplers":[
+              {{"input":{times},"output":{root_scales},"interpolation":"LINEAR"}},
+              {{"input":{times},"output":{child_steps},"interpolation":"STEP"}}],
+            "channels":[
+              {{"sampler":0,"target":{{"node":1,"path":"scale"}}}},
+              {{"sampler":1,"target":{{"node":2,"path":"scale"}}}}]}},
+          {{"name":"cubic_scale","samplers":[{{"input":{times},"output":{child_cubic},"interpolation":"CUBICSPLINE"}}],
+            "channels":[{{"sampler":0,"target":{{"node":2,"path":"scale"}}}}]}}
+        ]"#
+    )
+}
+
+fn load_scaled() -> (SkinnedMesh, Vec<Animation>) {
+    let mut doc = Doc::default();
+    let body = scaled_doc(&mut doc);
+    let path = write("scaled.glb", &doc.glb(&body));
+    (skinned(load_gltf(&path).unwrap()), load_animations(&path).unwrap())
+}
+
+#[test]
+fn scale_channels_sample_to_factors_of_the_rest_scale() {
+    let (s, clips) = load_scaled();
+    assert_eq!(s.skeleton.rest[0].scale, Vec3::new(2.0, 1.0, 0.5));
+    let scales = &clips[0];
+    assert!(scales.has_scales() && !scales.has_translations());
+    // t = 0.5 (s = 0.25): the root at (2.5, 1, 0.625), 1.25 × (1, 1, 1.25) its rest; the child still
+    // at its first key (a factor of 1).
+    let pose = scales.sample(&s.skeleton, 0.5).unwrap();
+    assert_vec3(pose.joint_scales[0], Vec3::new(1.25, 1.0, 1.25), "root, linear");
+    assert_vec3(pose.joint_scales[1], Vec3::ONE, "child, step before its second key");
+    assert_eq!(pose.joint_rotations, [Vec3::ZERO; 2]);
+    // At and after the last key the child's step reaches (2, 6, 3): twice its rest scale.
+    let end = scales.sample(&s.skeleton, 2.0).unwrap();
+    assert_vec3(end.joint_scales[0], Vec3::new(2.0, 1.0, 2.0), "root, last key");
+    assert_vec3(end.joint_scales[1], Vec3::new(2.0, 2.0, 3.0), "child, last key");
+    // The skinned joints are where the animated node transforms put them.
+    let g = s.joint_transforms(&pose).unwrap();
+    let root = Mat4::from_scale(Vec3::new(2.5, 1.0, 0.625));
+    let child = root * Mat4::from_scale_rotation_translation(Vec3::new(1.0, 3.0, 1.0), Quat::IDENTITY, Vec3::Y);
+    assert!(g[0].abs_diff_eq(root, 1e-6) && g[1].abs_diff_eq(child, 1e-6), "{g:?}");
+    // And the vertices follow: the child's vertex (0, 2, 0) is bound at the child's rest.
+    let v = s.skin(&end).unwrap();
+    let root_end = Mat4::from_scale(Vec3::new(4.0, 1.0, 1.0));
+    let child_end = root_end * Mat4::from_scale_rotation_translation(Vec3::new(2.0, 6.0, 3.0), Quat::IDENTITY, Vec3::Y);
+    let bound = (Mat4::from_scale(Vec3::new(2.0, 1.0, 0.5))
+        * Mat4::from_scale_rotation_translation(Vec3::new(1.0, 3.0, 1.0), Quat::IDENTITY, Vec3::Y))
+    .inverse();
+    assert_vec3(v[2], (child_end * bound).transform_point3(Vec3::new(0.0, 2.0, 0.0)), "skinned vertex");
+    assert_vec3(v[1], root_end.transform_point3(Vec3::new(0.5, 0.0, 0.0)), "root's vertex");
+}
+
+#[test]
+fn cubic_spline_scales_follow_the_hermite_formula() {
+    let (s, clips) = load_scaled();
+    // s = 0.5, Δt = 2: y = 0.5·3 + 0.25·2 + 0.5·6 − 0.25·4 = 4, a factor 4/3 of the rest's 3.
+    let pose = clips[1].sample(&s.skeleton, 1.0).unwrap();
+    assert_vec3(pose.joint_scales[1], Vec3::new(1.0, 4.0 / 3.0, 1.0), "child, midpoint");
+    assert_vec3(pose.joint_scales[0], Vec3::ONE, "root, not animated");
+    // s = 0.25: h = (0.84375, 0.28125, 0.15625, −0.09375), Δt folded into the tangents.
+    let pose = clips[1].sample(&s.skeleton, 0.5).unwrap();
+    let y = 0.84375 * 3.0 + 0.28125 * 2.0 + 0.15625 * 6.0 - 0.09375 * 4.0;
+    assert_vec3(pose.joint_scales[1], Vec3::new(1.0, y / 3.0, 1.0), "child, s = 0.25");
+}
+
+#[test]
+fn a_scale_of_a_zero_rest_scale_is_a_clear_error() {
+    let (mut s, clips) = load_scaled();
+    // The child's rest scale flattened in y: its keys (3 and 6 in y) are no factor of 0.
+    s.skeleton.rest[1].scale.y = 0.0;
+    let err = clips[0].sample(&s.skeleton, 0.5).unwrap_err();
+    assert!(err.to_string().contains("joint 1") && err.to_string().contains("rest scale"), "{err}");
+    // Where the key is 0 as well, the factor is 1.
+    let mut flat = clips[0].clone();
+    flat.channels[1].values.iter_mut().for_each(|v| v[1] = 0.0);
+    assert_eq!(flat.sample(&s.skeleton, 0.5).unwrap().joint_scales[1].y, 1.0);
+}
+
 #[test]
 fn malformed_animations_are_clear_errors() {
     let (s, clips) = load();
@@ -184,11 +302,11 @@ fn cesium_man_walk_samples_to_its_keys() {
     assert_eq!(clips.len(), 1);
     let walk = &clips[0];
     println!(
-        "CesiumMan: `{}`, {:.3} s, {} channels, {} scale channels ignored, {} other ignored",
+        "CesiumMan: `{}`, {:.3} s, {} channels ({} of scale), {} other skipped",
         walk.name,
         walk.duration,
         walk.channels.len(),
-        walk.ignored_scale_channels,
+        walk.channels.iter().filter(|c| c.property == Property::Scale).count(),
         walk.ignored_other_channels
     );
     assert!(walk.duration > 0.5 && !walk.channels.is_empty());

@@ -48,20 +48,24 @@ fn glam_rotation(v: DVec3) -> DMat4 {
 }
 
 /// The skinning model evaluated independently of the crate, in f64, at flat pose parameters
-/// (layout of `Pose::to_params`).
+/// (layout of `Pose::to_params`: `3n + 6` values, or `9n + 6` with joint translations `τ` and
+/// scale factors `σ`).
 fn reference_vertices(sm: &SkinnedMesh, params: &[f64]) -> Vec<DVec3> {
     let sk = &sm.skeleton;
     let n = sk.parents.len();
-    assert_eq!(params.len(), 3 * n + 6);
+    assert!(params.len() == 3 * n + 6 || params.len() == 9 * n + 6, "{} parameters", params.len());
     let v3 = |i: usize| DVec3::new(params[i], params[i + 1], params[i + 2]);
+    let with_scales = params.len() == 9 * n + 6;
     let world = DMat4::from_translation(v3(3 * n + 3)) * glam_rotation(v3(3 * n));
     let mut global: Vec<DMat4> = Vec::with_capacity(n);
     for j in 0..n {
         let r = &sk.rest[j];
-        let local = DMat4::from_translation(r.translation.as_dvec3())
+        let (tau, sigma) =
+            if with_scales { (v3(3 * n + 6 + 3 * j), v3(6 * n + 6 + 3 * j)) } else { (DVec3::ZERO, DVec3::ONE) };
+        let local = DMat4::from_translation(r.translation.as_dvec3() + tau)
             * DMat4::from_quat(r.rotation.as_dquat().normalize())
             * glam_rotation(v3(3 * j))
-            * DMat4::from_scale(r.scale.as_dvec3());
+            * DMat4::from_scale(r.scale.as_dvec3() * sigma);
         let g = match sk.parents[j] {
             Some(p) => global[p] * local,
             None => world * sk.root_parent[j].as_dmat4() * local,
@@ -149,6 +153,7 @@ fn random_pose(rng: &mut SplitMix64, joint_count: usize, max_angle: f64) -> Pose
     Pose {
         joint_rotations: (0..joint_count).map(|_| rng.axis_angle(max_angle)).collect(),
         joint_translations: Vec::new(),
+        joint_scales: Vec::new(),
         orientation: rng.axis_angle(max_angle),
         translation: rng.vec3(-1.0, 1.0),
     }
@@ -180,7 +185,7 @@ fn fd_check(sm: &SkinnedMesh, pose: &Pose, rng: &mut SplitMix64, directions: usi
     let grad = sm.backward(&cache, &c).unwrap();
     assert_eq!(grad.joint_rotations.len(), sm.joint_count());
     let g: Vec<f64> = grad.to_params().iter().map(|&x| x as f64).collect();
-    assert_eq!(g.len(), Pose::parameter_count(sm.joint_count()));
+    assert_eq!(g.len(), params.len(), "the gradient's layout is the pose's");
     assert!(g.iter().all(|x| x.is_finite()), "{g:?}");
 
     let h = 1e-5;
@@ -230,4 +235,5 @@ mod errors;
 mod forward;
 mod models;
 mod rodrigues;
+mod scale;
 mod shape;
