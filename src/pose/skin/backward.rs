@@ -38,7 +38,8 @@ impl SkinnedMesh {
     /// respect to the posed vertices of the forward pass that produced `cache`. The returned
     /// [`Pose`] holds `∂L/∂θ_j`, `∂L/∂orientation`, `∂L/∂translation` and, when the pose of the
     /// forward pass has joint translations, `∂L/∂τ_j`, and when it has joint scale factors,
-    /// `∂L/∂σ_j`; flatten it with [`Pose::to_params`] for an optimiser. [`SkinnedMesh::backward_with_shape`] also gives `∂L/∂β`.
+    /// `∂L/∂σ_j`; flatten it with [`Pose::to_params`] for an optimiser.
+    /// [`SkinnedMesh::backward_with_shape`] also gives `∂L/∂β`.
     ///
     /// Chain: `∂L/∂M_j = Σ_i w_ij (∂L/∂v_i)·[v̂_i, 1]ᵀ` (summed in f64, in fixed-size blocks of
     /// vertices added in a fixed order, so the result is deterministic), `∂L/∂G_j = ∂L/∂M_j ·
@@ -114,7 +115,7 @@ impl SkinnedMesh {
             let d_rodrigues = rodrigues_derivative_f64(theta);
             d_rotations[j] = DVec3::from_array(d_rodrigues.map(|m| frobenius(&d_r, &m))).as_vec3();
             if with_scales {
-                // local = (A·R(θ))·S(s ⊙ σ): ∂L/∂S = (A·R(θ))ᵀ ∂L/∂local, and ∂L/∂σ_c = s_c·(∂L/∂S)_cc.
+                // local = (A·R(θ))·S(s ⊙ σ): ∂L/∂S = (A·R(θ))ᵀ ∂L/∂local, ∂L/∂σ_c = s_c·(∂L/∂S)_cc.
                 let ar = state.rest_a[j] * DMat4::from_mat3(rodrigues_f64(theta));
                 let d_s = ar.transpose() * d_local;
                 let s = self.skeleton.rest[j].scale.as_dvec3();

@@ -105,6 +105,9 @@ fn bad_joint_scales_are_clear_errors() {
     assert!(err.to_string().contains("scale factor of joint 2"), "{err}");
     pose.joint_scales[2].z = 1e30;
     assert!(sm.skin(&pose).unwrap_err().to_string().contains("beyond"));
-    let text = r#"{"format":"diffsil-pose-1","joint_rotations":[[0,0,0]],"joint_scales":[[1,1]],"orientation":[0,0,0],"translation":[0,0,0]}"#;
+    let text = concat!(
+        r#"{"format":"diffsil-pose-1","joint_rotations":[[0,0,0]],"joint_scales":[[1,1]],"#,
+        r#""orientation":[0,0,0],"translation":[0,0,0]}"#
+    );
     assert!(Pose::from_json(text).unwrap_err().to_string().contains("joint_scales"));
 }
