@@ -329,4 +329,8 @@ fn cesium_man_walk_samples_to_its_keys() {
     for pose in &frames {
         assert!(s.skin(pose).unwrap().iter().all(|v| v.is_finite()));
     }
+    // The walk keys every joint's scale too, at 1 up to rounding (1 ± 1.3e-6 in the file).
+    assert!(walk.has_scales());
+    let off = frames.iter().flat_map(|p| p.joint_scales.iter()).map(|s| (*s - Vec3::ONE).abs().max_element());
+    assert!(off.fold(0.0, f32::max) < 1e-5);
 }
