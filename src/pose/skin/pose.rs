@@ -188,44 +188,18 @@ impl Pose {
                 self.joint_rotations[j]
             )));
         }
-        if !self.joint_translations.is_empty() && self.joint_translations.len() != joint_count {
-            return Err(Error::LengthMismatch {
-                what: "pose joint translations (none, or one per skeleton joint)",
-                expected: joint_count,
-                got: self.joint_translations.len(),
-            });
-        }
-        if let Some(j) = self.joint_translations.iter().position(|t| !t.is_finite()) {
-            return Err(Error::InvalidSettings(format!(
-                "pose: the translation of joint {j} is {:?}; every pose parameter must be a finite number",
-                self.joint_translations[j]
-            )));
-        }
-        if !self.joint_scales.is_empty() && self.joint_scales.len() != joint_count {
-            return Err(Error::LengthMismatch {
-                what: "pose joint scales (none, or one per skeleton joint)",
-                expected: joint_count,
-                got: self.joint_scales.len(),
-            });
-        }
-        if let Some(j) = self.joint_scales.iter().position(|s| !s.is_finite()) {
-            return Err(Error::InvalidSettings(format!(
-                "pose: the scale factor of joint {j} is {:?}; every pose parameter must be a finite number",
-                self.joint_scales[j]
-            )));
-        }
-        if let Some((j, v)) = self
-            .joint_scales
-            .iter()
-            .enumerate()
-            .find_map(|(j, s)| Some((j, super::skeleton::too_large(&s.to_array())?)))
-        {
-            let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
-            return Err(Error::InvalidSettings(format!(
-                "pose: the scale factor of joint {j} has a component {v:e}, beyond ±{max:e}; keep the model within \
-                 that range"
-            )));
-        }
+        check_per_joint(
+            &self.joint_translations,
+            joint_count,
+            "pose joint translations (none, or one per skeleton joint)",
+            "translation",
+        )?;
+        check_per_joint(
+            &self.joint_scales,
+            joint_count,
+            "pose joint scales (none, or one per skeleton joint)",
+            "scale factor",
+        )?;
         if !self.orientation.is_finite() {
             return Err(Error::InvalidSettings(format!(
                 "pose: the orientation is {:?}; every pose parameter must be a finite number",
@@ -238,18 +212,6 @@ impl Pose {
                 self.translation
             )));
         }
-        if let Some((j, v)) = self
-            .joint_translations
-            .iter()
-            .enumerate()
-            .find_map(|(j, t)| Some((j, super::skeleton::too_large(&t.to_array())?)))
-        {
-            let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
-            return Err(Error::InvalidSettings(format!(
-                "pose: the translation of joint {j} has a component {v:e}, beyond ±{max:e}; keep the model within \
-                 that range (lower the learning rate if a fit drove it there)"
-            )));
-        }
         if let Some(v) = super::skeleton::too_large(&self.translation.to_array()) {
             let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
             return Err(Error::InvalidSettings(format!(
@@ -259,4 +221,29 @@ impl Pose {
         }
         Ok(())
     }
+}
+
+/// Checks an optional per-joint list of a pose (`what`: its name in a length error; `name`: a
+/// value's, "translation" or "scale factor"): empty or one per joint, finite, and within
+/// ±[`MAX_TRANSFORM_MAGNITUDE`](super::skeleton::MAX_TRANSFORM_MAGNITUDE) per component.
+fn check_per_joint(list: &[Vec3], joint_count: usize, what: &'static str, name: &str) -> Result<()> {
+    if !list.is_empty() && list.len() != joint_count {
+        return Err(Error::LengthMismatch { what, expected: joint_count, got: list.len() });
+    }
+    if let Some(j) = list.iter().position(|v| !v.is_finite()) {
+        return Err(Error::InvalidSettings(format!(
+            "pose: the {name} of joint {j} is {:?}; every pose parameter must be a finite number",
+            list[j]
+        )));
+    }
+    if let Some((j, v)) =
+        list.iter().enumerate().find_map(|(j, t)| Some((j, super::skeleton::too_large(&t.to_array())?)))
+    {
+        let max = super::skeleton::MAX_TRANSFORM_MAGNITUDE;
+        return Err(Error::InvalidSettings(format!(
+            "pose: the {name} of joint {j} has a component {v:e}, beyond ±{max:e}; keep the model within that range \
+             (lower the learning rate if a fit drove it there)"
+        )));
+    }
+    Ok(())
 }
