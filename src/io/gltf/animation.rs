@@ -22,8 +22,8 @@ use crate::{Error, Result};
 ///
 /// Rotation, translation and scale channels on the skin's joints are kept with their
 /// interpolation (`STEP`, `LINEAR`, `CUBICSPLINE`); channels on other nodes and morph-weight
-/// channels are skipped and counted in [`Animation::ignored_other_channels`]. A clip keeps its place (and
-/// name) even when all its channels are skipped. Errors: [`Error::Io`], and [`Error::Format`]
+/// channels are skipped and counted in [`Animation::ignored_other_channels`]. A clip keeps its
+/// place (and name) even when all its channels are skipped. Errors: [`Error::Io`], and [`Error::Format`]
 /// when the file has no skinned mesh or an animation is malformed (times not increasing or not
 /// finite, value counts that do not match the keys, unsupported accessor types).
 ///
