@@ -1,6 +1,6 @@
-//! Shaped skinning (morph targets, joints following the shape) and joint translations: the forward
-//! against an independent f64 reference, `∂L/∂β` and `∂L/∂τ` against central finite differences,
-//! the shaped rest pose, and errors.
+//! Shaped skinning (morph targets, joints following the shape) with joint translations and scale
+//! factors: the forward against an independent f64 reference, `∂L/∂β`, `∂L/∂τ` and `∂L/∂σ`
+//! against central finite differences, the shaped rest pose, and errors.
 
 use diffsil::pose::skin::MorphTargets;
 
@@ -19,12 +19,13 @@ fn with_morphs(sm: SkinnedMesh, count: usize, offsets: bool, rng: &mut SplitMix6
 
 /// Shaped skinning evaluated independently of the crate, in f64, by another route: the shaped
 /// rest world transforms are `T(Δp_j)·G⁰_j`, each shaped local rest transform is
-/// `G'⁰_parent⁻¹ · G'⁰_j`, and the pose enters as `T(τ_j) · local'_j · S⁻¹ · R(θ_j) · S`.
-/// `params` has the layout of `Pose::to_params` with joint translations (`6n + 6`).
+/// `G'⁰_parent⁻¹ · G'⁰_j`, and the pose enters as `T(τ_j) · local'_j · S⁻¹ · R(θ_j) · S(s ⊙ σ_j)`.
+/// `params` has the layout of `Pose::to_params` with joint translations (`6n + 6`), or with
+/// joint translations and scale factors `σ` (`9n + 6`).
 fn reference_shaped(sm: &SkinnedMesh, params: &[f64], betas: &[f64]) -> Vec<DVec3> {
     let sk = &sm.skeleton;
     let n = sk.parents.len();
-    assert_eq!(params.len(), 6 * n + 6);
+    assert!(params.len() == 6 * n + 6 || params.len() == 9 * n + 6, "{} parameters", params.len());
     let v3 = |i: usize| DVec3::new(params[i], params[i + 1], params[i + 2]);
     let offset = |j: usize| -> DVec3 {
         match &sm.morphs.joint_offsets {
@@ -55,11 +56,12 @@ fn reference_shaped(sm: &SkinnedMesh, params: &[f64], betas: &[f64]) -> Vec<DVec
             None => sk.root_parent[j].as_dmat4(),
         };
         let scale = DMat4::from_scale(sk.rest[j].scale.as_dvec3());
+        let sigma = if params.len() == 9 * n + 6 { v3(6 * n + 6 + 3 * j) } else { DVec3::ONE };
         let local = DMat4::from_translation(v3(3 * n + 6 + 3 * j))
             * (parent_rest.inverse() * shaped_rest[j])
             * scale.inverse()
             * glam_rotation(v3(3 * j))
-            * scale;
+            * DMat4::from_scale(sk.rest[j].scale.as_dvec3() * sigma);
         let g = match sk.parents[j] {
             Some(p) => global[p] * local,
             None => world * sk.root_parent[j].as_dmat4() * local,
@@ -124,11 +126,14 @@ fn check_shaped(sm: &SkinnedMesh, pose: &Pose, betas: &[f32], rng: &mut SplitMix
         let scale = range.map(|k| fd[k] * fd[k]).sum::<f64>().sqrt().max(1e-3 * norm);
         diff / scale
     };
-    let (rotations, translations, shape) =
-        (group(0..split - 3 * n), group(split - 3 * n..split), group(split..x.len()));
-    println!("{label}: forward {forward:.1e}, pose {rotations:.1e}, τ {translations:.1e}, β {shape:.1e}");
+    let (rotations, translations, shape) = (group(0..3 * n + 6), group(3 * n + 6..6 * n + 6), group(split..x.len()));
+    let scales = if split > 6 * n + 6 { group(6 * n + 6..split) } else { 0.0 };
+    println!(
+        "{label}: forward {forward:.1e}, pose {rotations:.1e}, τ {translations:.1e}, σ {scales:.1e}, β {shape:.1e}"
+    );
     assert!(rotations <= 1e-3, "{label}: pose gradient vs finite differences: {rotations}");
     assert!(translations <= 1e-3, "{label}: joint translation gradient vs finite differences: {translations}");
+    assert!(scales <= 1e-3, "{label}: joint scale gradient vs finite differences: {scales}");
     assert!(shape <= 1e-3, "{label}: ∂L/∂β vs finite differences: {shape}");
 }
 
@@ -145,6 +150,20 @@ fn shaped_backward_matches_finite_differences_with_joint_offsets() {
         // At β = 0 the gradient with respect to β still has every term.
         let pose = random_translated_pose(&mut rng, sm.joint_count());
         check_shaped(&sm, &pose, &[0.0; 3], &mut rng, &format!("{label}, offsets, β = 0"));
+    }
+}
+
+#[test]
+fn shaped_backward_matches_finite_differences_with_joint_scales() {
+    // β, joint offsets and joint scale factors together: the shape's joint shifts are in the
+    // parent's frame, so a scaled parent scales them with its bone.
+    let mut rng = SplitMix64::new(307);
+    let sm = with_morphs(synthetic(&FOREST, 90, false, 36), 3, true, &mut rng);
+    for trial in 0..2 {
+        let mut pose = random_translated_pose(&mut rng, sm.joint_count());
+        pose.joint_scales = (0..sm.joint_count()).map(|_| rng.vec3(0.6, 1.5)).collect();
+        let betas: Vec<f32> = (0..3).map(|_| rng.range_f64(-1.0, 1.0) as f32).collect();
+        check_shaped(&sm, &pose, &betas, &mut rng, &format!("forest, offsets and scales, trial {trial}"));
     }
 }
 
